@@ -1,0 +1,243 @@
+"""RattleParams: the one canonical, validated parameter set of the rattle model.
+
+Every layer (solver, sweeps, cache keys, CLI, dashboard, tests) builds this object, so the
+dimensionless numbers are derived in exactly one place.  Bad input raises ``ValueError``
+naming the parameter, the offending value and the allowed range.
+
+Model (dimensionless, paper eq. 10):
+``Λ ẍ = −1`` in flight, ``y ≤ x ≤ y + j``, ``y(t) = Σ_k h_k cos(k t − φ_k)`` with ``h_1 = 1``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import re
+from typing import Any, Iterable
+
+import numpy as np
+
+#: Allowed ranges, shared by validation messages, the CLI and the dashboard's widgets.
+LAM_RANGE = (0.0, 1.0e4)  # open at 0
+R_RANGE = (0.0, 1.0)
+J_RANGE = (0.0, 1.0e4)  # open at 0
+AMPLITUDE_RANGE = (0.0, 100.0)
+PHASE_RANGE_DEG = (-1.0e6, 1.0e6)
+V_STICK_RANGE = (0.0, 10.0)
+MAX_HARMONICS = 32
+
+
+def _finite(name: str, value: Any) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a real number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be finite, got {v!r}")
+    return v
+
+
+def check_range(name: str, value: Any, lo: float, hi: float, *, lo_open: bool = False,
+                hi_open: bool = False) -> float:
+    """Return ``value`` as a float, or raise ``ValueError`` naming ``name`` and its range."""
+    v = _finite(name, value)
+    below = v <= lo if lo_open else v < lo
+    above = v >= hi if hi_open else v > hi
+    if below or above:
+        left = "(" if lo_open else "["
+        right = ")" if hi_open else "]"
+        raise ValueError(f"{name} = {v!r} is outside the allowed range {left}{lo:g}, {hi:g}{right}")
+    return v
+
+
+@dataclasses.dataclass(frozen=True)
+class RattleParams:
+    """Dimensionless parameters of the idle-gear rattle model.
+
+    Parameters
+    ----------
+    lam : float
+        Λ = m H₁ ω² / F, inertia over drag (paper eq. 9). Range (0, 1e4].
+    r : float
+        Coefficient of restitution, ``ẋ⁺ − ẏ = −r (ẋ⁻ − ẏ)``. Range [0, 1].
+    j : float
+        Backlash divided by H₁. Range (0, 1e4].
+    amplitudes : tuple of float
+        ``h_k = H_k / H₁`` for k = 1..K; the first must be exactly 1. Each in [0, 100].
+    phases_deg : tuple of float
+        ``φ_k`` in degrees, same length as ``amplitudes``.
+    v_stick : float
+        Limit impact velocity: an impact with ``|ẋ − ẏ| < v_stick`` ends the rebounds
+        (permanent contact while the reaction keeps its sign). Range [0, 10].
+    """
+
+    lam: float
+    r: float = 0.65
+    j: float = 8.0
+    amplitudes: tuple[float, ...] = (1.0,)
+    phases_deg: tuple[float, ...] = (0.0,)
+    v_stick: float = 1e-6
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        set_(self, "lam", check_range("lam", self.lam, *LAM_RANGE, lo_open=True))
+        set_(self, "r", check_range("r", self.r, *R_RANGE))
+        set_(self, "j", check_range("j", self.j, *J_RANGE, lo_open=True))
+        set_(self, "v_stick", check_range("v_stick", self.v_stick, *V_STICK_RANGE))
+        amps = _as_tuple("amplitudes", self.amplitudes)
+        phases = _as_tuple("phases_deg", self.phases_deg)
+        if len(amps) == 0:
+            raise ValueError("amplitudes must hold at least one harmonic (h_1 = 1), got an empty list")
+        if len(amps) > MAX_HARMONICS:
+            raise ValueError(f"amplitudes has {len(amps)} harmonics; the allowed range is 1 to {MAX_HARMONICS}")
+        if len(phases) != len(amps):
+            raise ValueError(f"phases_deg has {len(phases)} entries but amplitudes has {len(amps)}; "
+                             "they must have the same length")
+        amps = tuple(check_range(f"amplitudes[{i}] (h_{i + 1})", a, *AMPLITUDE_RANGE)
+                     for i, a in enumerate(amps))
+        phases = tuple(check_range(f"phases_deg[{i}] (phi_{i + 1})", p, *PHASE_RANGE_DEG)
+                       for i, p in enumerate(phases))
+        if amps[0] != 1.0:
+            raise ValueError(f"amplitudes[0] (h_1) = {amps[0]!r} must be exactly 1: "
+                             "positions are scaled by the first harmonic's amplitude H1")
+        set_(self, "amplitudes", amps)
+        set_(self, "phases_deg", phases)
+
+    # ----- derived arrays -------------------------------------------------------------
+    @property
+    def n_harmonics(self) -> int:
+        return len(self.amplitudes)
+
+    @property
+    def h(self) -> np.ndarray:
+        """Amplitudes ``h_k`` as a float64 array."""
+        return np.asarray(self.amplitudes, dtype=np.float64)
+
+    @property
+    def phi(self) -> np.ndarray:
+        """Phases ``φ_k`` in radians as a float64 array."""
+        return np.deg2rad(np.asarray(self.phases_deg, dtype=np.float64))
+
+    # ----- editing by name --------------------------------------------------------------
+    def get(self, name: str) -> float:
+        """Value of a sweepable parameter: ``lam``, ``r``, ``j``, ``v_stick``, ``hK``, ``phiK``."""
+        kind, k = parse_name(name)
+        if kind == "h":
+            return self.amplitudes[k - 1] if k <= self.n_harmonics else 0.0
+        if kind == "phi":
+            return self.phases_deg[k - 1] if k <= self.n_harmonics else 0.0
+        return getattr(self, kind)
+
+    def with_value(self, name: str, value: float) -> "RattleParams":
+        """A copy with one parameter changed; ``hK``/``phiK`` add harmonics up to K as needed."""
+        kind, k = parse_name(name)
+        if kind in ("h", "phi"):
+            amps = list(self.amplitudes) + [0.0] * max(0, k - self.n_harmonics)
+            phases = list(self.phases_deg) + [0.0] * max(0, k - self.n_harmonics)
+            (amps if kind == "h" else phases)[k - 1] = value
+            return dataclasses.replace(self, amplitudes=tuple(amps), phases_deg=tuple(phases))
+        return dataclasses.replace(self, **{kind: value})
+
+    def replace(self, **changes: Any) -> "RattleParams":
+        return dataclasses.replace(self, **changes)
+
+    # ----- canonical form ---------------------------------------------------------------
+    def canonical(self) -> dict:
+        """Canonical dict: trailing zero harmonics dropped, floats exact (``float.hex``)."""
+        amps, phases = list(self.amplitudes), list(self.phases_deg)
+        while len(amps) > 1 and amps[-1] == 0.0:
+            amps.pop()
+            phases.pop()
+        return {
+            "lam": float(self.lam).hex(), "r": float(self.r).hex(), "j": float(self.j).hex(),
+            "amplitudes": [float(a).hex() for a in amps],
+            "phases_deg": [float(p).hex() for p in phases],
+            "v_stick": float(self.v_stick).hex(),
+        }
+
+    def to_dict(self) -> dict:
+        """Plain JSON-friendly dict (decimal floats), inverse of :meth:`from_dict`."""
+        return {"lam": self.lam, "r": self.r, "j": self.j, "amplitudes": list(self.amplitudes),
+                "phases_deg": list(self.phases_deg), "v_stick": self.v_stick}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "RattleParams":
+        def num(v: Any) -> Any:
+            if isinstance(v, str) and re.match(r"^[-+]?0x", v.strip()):
+                return float.fromhex(v)
+            return v
+        return cls(lam=num(d["lam"]), r=num(d.get("r", 0.65)), j=num(d.get("j", 8.0)),
+                   amplitudes=tuple(num(a) for a in d.get("amplitudes", (1.0,))),
+                   phases_deg=tuple(num(p) for p in d.get("phases_deg", (0.0,))),
+                   v_stick=num(d.get("v_stick", 1e-6)))
+
+    def key(self, **settings: Any) -> str:
+        """SHA-256 of the canonical parameters plus any settings (used as a cache key)."""
+        return canonical_hash({"params": self.canonical(), **settings})
+
+
+def _as_tuple(name: str, seq: Any) -> tuple:
+    if isinstance(seq, (str, bytes)):
+        raise ValueError(f"{name} must be a sequence of numbers, got {seq!r}")
+    if np.isscalar(seq):
+        return (seq,)
+    try:
+        return tuple(seq)
+    except TypeError:
+        raise ValueError(f"{name} must be a sequence of numbers, got {seq!r}") from None
+
+
+_NAME_RE = re.compile(r"^(lam|r|j|v_stick|h(\d+)|phi(\d+))$")
+
+
+def parse_name(name: str) -> tuple[str, int]:
+    """Split a parameter name into (kind, harmonic order); raises ``ValueError`` if unknown."""
+    m = _NAME_RE.match(str(name))
+    if not m:
+        raise ValueError(f"unknown parameter name {name!r}; allowed: lam, r, j, v_stick, "
+                         f"h2..h{MAX_HARMONICS} (amplitude ratio), phi1..phi{MAX_HARMONICS} (phase, degrees)")
+    if m.group(2) is not None:
+        k = int(m.group(2))
+        if not 2 <= k <= MAX_HARMONICS:
+            raise ValueError(f"parameter {name!r}: harmonic order {k} is outside the allowed range "
+                             f"[2, {MAX_HARMONICS}] (h1 is fixed at 1)")
+        return "h", k
+    if m.group(3) is not None:
+        k = int(m.group(3))
+        if not 1 <= k <= MAX_HARMONICS:
+            raise ValueError(f"parameter {name!r}: harmonic order {k} is outside the allowed range "
+                             f"[1, {MAX_HARMONICS}]")
+        return "phi", k
+    return m.group(1), 0
+
+
+def _canon(obj: Any) -> Any:
+    if isinstance(obj, float):
+        return obj.hex()
+    if isinstance(obj, (np.floating,)):
+        return float(obj).hex()
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, np.ndarray):
+        return [_canon(v) for v in obj.tolist()]
+    if isinstance(obj, dict):
+        return {str(k): _canon(v) for k, v in sorted(obj.items())}
+    if isinstance(obj, (list, tuple)):
+        return [_canon(v) for v in obj]
+    return obj
+
+
+def canonical_hash(obj: Any) -> str:
+    """SHA-256 hex digest of canonical JSON (sorted keys, floats as ``float.hex()``)."""
+    text = json.dumps(_canon(obj), sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def iter_names(params: RattleParams) -> Iterable[str]:
+    """All sweepable names for this parameter set."""
+    yield from ("lam", "r", "j", "v_stick")
+    for k in range(2, params.n_harmonics + 1):
+        yield f"h{k}"
+    for k in range(1, params.n_harmonics + 1):
+        yield f"phi{k}"

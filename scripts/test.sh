@@ -1,0 +1,7 @@
+#!/usr/bin/env bash
+# Installs everything the tests need (Python >= 3.12 venv, test extras, Chromium) and runs them.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/env.sh test
+export NUMBA_THREADING_LAYER="${NUMBA_THREADING_LAYER:-workqueue}"
+exec .venv/bin/python -m pytest "$@"
