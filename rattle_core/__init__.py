@@ -1,10 +1,17 @@
 """Rattle Explorer's computational core: exact event-driven gear-rattle dynamics.
 
 Layers, each importing only those before it:
-``params`` → ``excitation`` → ``events`` → ``solver`` → ``trajectory``.
+``params`` → ``excitation`` → ``events`` → ``solver`` → ``trajectory`` → ``sections``,
+``classify`` → ``sweep`` → ``cache``.
 """
+from .classify import Classification, classify, contact_boundary, one_sided_impulse
 from .excitation import excitation
 from .params import RattleParams
+from .sections import impact_map, poincare
+from .sweep import SweepResult
+from .sweep import sweep as sweep
 from .trajectory import SOLVER_VERSION, SolverError, Trajectory, simulate
 
-__all__ = ["RattleParams", "Trajectory", "simulate", "excitation", "SolverError", "SOLVER_VERSION"]
+__all__ = ["RattleParams", "Trajectory", "simulate", "excitation", "SolverError", "SOLVER_VERSION",
+           "poincare", "impact_map", "classify", "Classification", "contact_boundary",
+           "one_sided_impulse", "sweep", "SweepResult"]
