@@ -28,26 +28,28 @@ V_STICK_RANGE = (0.0, 10.0)
 MAX_HARMONICS = 32
 
 
-def _finite(name: str, value: Any) -> float:
+def _finite(name: str, value: Any, allowed: str = "") -> float:
+    where = f"; the allowed range is {allowed}" if allowed else ""
     try:
         v = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a real number, got {value!r}") from None
+        raise ValueError(f"{name} must be a real number, got {value!r}{where}") from None
     if not math.isfinite(v):
-        raise ValueError(f"{name} must be finite, got {v!r}")
+        raise ValueError(f"{name} must be finite, got {v!r}{where}")
     return v
 
 
 def check_range(name: str, value: Any, lo: float, hi: float, *, lo_open: bool = False,
                 hi_open: bool = False) -> float:
-    """Return ``value`` as a float, or raise ``ValueError`` naming ``name`` and its range."""
-    v = _finite(name, value)
+    """Return ``value`` as a float, or raise ``ValueError`` naming ``name``, the value and its range."""
+    left = "(" if lo_open else "["
+    right = ")" if hi_open else "]"
+    allowed = f"{left}{lo:g}, {hi:g}{right}"
+    v = _finite(name, value, allowed)
     below = v <= lo if lo_open else v < lo
     above = v >= hi if hi_open else v > hi
     if below or above:
-        left = "(" if lo_open else "["
-        right = ")" if hi_open else "]"
-        raise ValueError(f"{name} = {v!r} is outside the allowed range {left}{lo:g}, {hi:g}{right}")
+        raise ValueError(f"{name} = {v!r} is outside the allowed range {allowed}")
     return v
 
 
