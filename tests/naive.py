@@ -1,0 +1,355 @@
+"""Slow, obvious references for the rattle model, written from ``MODEL.md`` alone.
+
+Nothing here imports ``rattle_core``: the compiled solver is checked against code that shares
+none of its kernels, bounds or tolerances.
+
+* :func:`y_derivative` evaluates ``y(t) = Σ h_k cos(k t − φ_k)`` and its derivatives term by
+  term, with the explicit ``cos, −sin, −cos, sin`` cycle.
+* :func:`naive_simulate` is a plain-Python event loop.  Each flight is scanned on a dense grid
+  for the first sign change of either gap, and the crossing is polished with ``brentq``.  It
+  applies the same impact law, ``v_stick`` rule and stick/release rule as the model, so it
+  agrees with the solver on every contact that is not grazing; a grazing contact (the gap dips
+  below zero for less than one grid step) is exactly what it may miss.
+* :func:`ivp_simulate` integrates ``Λ ẍ = −1`` with ``scipy.integrate.solve_ivp`` (DOP853,
+  tight tolerances) and terminal events on both gaps.  It handles flights and impacts only, and
+  stops with an error at the first contact slow enough to start a stick phase.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
+
+TWO_PI = 2.0 * np.pi
+
+
+class ReferenceError_(RuntimeError):
+    """The reference met a situation it is not built to resolve (e.g. a grazing start)."""
+
+
+def y_derivative(t, h, phi, m: int = 0):
+    """m-th derivative of ``y(t) = Σ_k h_k cos(k t − φ_k)`` (phases in radians).
+
+    Uses ``d/dt cos = −sin``, ``d/dt sin = cos`` directly, with no reduction of ``t`` modulo
+    2π, so it shares no code path with ``rattle_core.excitation``.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    out = np.zeros_like(t)
+    for k, (hk, pk) in enumerate(zip(h, phi), start=1):
+        arg = k * t - pk
+        cycle = m % 4
+        if cycle == 0:
+            term = np.cos(arg)
+        elif cycle == 1:
+            term = -np.sin(arg)
+        elif cycle == 2:
+            term = -np.cos(arg)
+        else:
+            term = np.sin(arg)
+        out = out + hk * float(k) ** m * term
+    return out
+
+
+def _y(t, h, phi, m=0) -> float:
+    return float(y_derivative(np.float64(t), h, phi, m))
+
+
+@dataclasses.dataclass
+class NaiveRun:
+    """Event log of a reference run (same meaning as the fields of ``Trajectory``)."""
+
+    impact_t: np.ndarray
+    impact_impulse: np.ndarray
+    impact_flank: np.ndarray
+    impact_w: np.ndarray
+    stick_intervals: np.ndarray
+    seg_t: np.ndarray
+    seg_kind: np.ndarray
+    seg_x: np.ndarray
+    seg_v: np.ndarray
+    t_end: float
+
+
+def _first_scan_point(u, g2, g3, m2, m3, m4, ds):
+    """A first grid point ``s1`` at which a gap leaving its wall is provably positive.
+
+    The gap starts at 0 with slope ``u ≥ 0``, curvature ``g2`` and third derivative ``g3``;
+    Taylor's theorem with ``|g''| ≤ m2``, ``|g'''| ≤ m3``, ``|g''''| ≤ m4`` gives
+    ``g(s) ≥ u s − m2 s²/2`` (positive for ``s = u/(4 m2)``),
+    ``g(s) ≥ g2 s²/2 − m3 s³/6`` (``s = g2/m3``) and ``g(s) ≥ g3 s³/6 − m4 s⁴/24`` (``s = g3/m4``).
+    """
+    cands = []
+    if u > 0.0:
+        cands.append(u / (4.0 * m2))
+    if g2 > 0.0:
+        cands.append(g2 / m3)
+    if g2 >= -1e-14 and g3 > 0.0:
+        cands.append(g3 / m4)
+    if not cands:
+        raise ReferenceError_(f"cannot leave the wall: u={u!r}, g''={g2!r}, g'''={g3!r}")
+    return min(ds, max(cands))
+
+
+def _scan_grid(s1, ds, smax):
+    """Grid from ``s1``: steps grow geometrically (×1.25) up to ``ds``, then stay at ``ds``."""
+    pts = [s1]
+    while pts[-1] < smax:
+        step = min(ds, max(s1, 0.25 * pts[-1]))
+        if step >= ds:
+            break
+        pts.append(pts[-1] + step)
+    head = np.array(pts)
+    tail = np.arange(head[-1] + ds, smax, ds)
+    grid = np.concatenate([head, tail, [smax]])
+    return grid[grid <= smax]
+
+
+def naive_simulate(lam, r, j, h, phi, v_stick, t0, x0, v0, t_end, ds=TWO_PI / 1000,
+                   max_events=200_000) -> NaiveRun:
+    """Plain-Python event loop for the rattle model (MODEL.md), from ``t0`` to ``t_end``.
+
+    Parameters
+    ----------
+    lam, r, j : float
+        Λ, restitution and backlash.
+    h, phi : sequence of float
+        Harmonic amplitudes and phases (radians).
+    v_stick : float
+        An impact with ``|w| < v_stick`` is plastic; the gear then sticks while the reaction
+        ``σ (1 + Λ ÿ)`` is positive, and leaves with ``ẋ = ẏ`` when it reaches zero.
+    t0, x0, v0 : float
+        Initial time and state (``y(t0) ≤ x0 ≤ y(t0) + j``).
+    t_end : float
+        End time.
+    ds : float
+        Longest scan step.  Contacts whose penetration lasts less than ``ds`` may be missed.
+    """
+    h = np.asarray(h, dtype=np.float64)
+    phi = np.asarray(phi, dtype=np.float64)
+    k = np.arange(1, len(h) + 1, dtype=np.float64)
+    habs = np.abs(h)
+    m2 = 1.0 / lam + float(np.sum(k**2 * habs))
+    m3 = float(np.sum(k**3 * habs))
+    m4 = float(np.sum(k**4 * habs))
+    imp_t, imp_I, imp_fl, imp_w = [], [], [], []
+    sticks, seg_t, seg_kind, seg_x, seg_v = [], [], [], [], []
+
+    t, x, v = float(t0), float(x0), float(v0)
+    pending = 0  # wall of a contact at the current time
+    wall = 0  # wall the current flight leaves (for the first scan point)
+    u = g2 = g3 = 0.0
+    w0 = v - _y(t, h, phi, 1)
+    for sigma, gap in ((1, x - _y(t, h, phi)), (-1, _y(t, h, phi) + j - x)):
+        if abs(gap) <= 1e-12:
+            # on a wall at t0: a contact if moving into it, else a flight leaving it
+            if sigma * w0 <= 0.0:
+                pending = sigma
+            else:
+                wall, u = sigma, abs(w0)
+
+    for _ in range(max_events):
+        if pending != 0:
+            sigma = pending
+            pending = 0
+            yd = _y(t, h, phi, 1)
+            ydd = _y(t, h, phi, 2)
+            x = _y(t, h, phi) + (j if sigma == -1 else 0.0)
+            w = v - yd
+            if abs(w) >= v_stick and w != 0.0:
+                vplus = yd - r * w
+                imp_t.append(t)
+                imp_I.append(vplus - v)
+                imp_fl.append(sigma)
+                imp_w.append(w)
+                v = vplus
+                u = abs(r * w)
+            else:
+                v = yd
+                u = 0.0
+            if u == 0.0:
+                react = sigma * (1.0 + lam * ydd)
+                if react > 0.0:
+                    t_rel = _release_time(lam, h, phi, sigma, t, t_end, ds)
+                    seg_t.append(t)
+                    seg_kind.append(sigma)
+                    seg_x.append(x)
+                    seg_v.append(v)
+                    sticks.append((t, min(t_rel, t_end)))
+                    if t_rel >= t_end:
+                        t = t_end
+                        break
+                    t = t_rel
+                    x = _y(t, h, phi) + (j if sigma == -1 else 0.0)
+                    v = _y(t, h, phi, 1)
+                    react = 0.0
+                g2 = -react / lam
+                g3 = -sigma * _y(t, h, phi, 3)
+            else:
+                g2 = g3 = 0.0
+            wall = sigma
+            continue
+        if t >= t_end:
+            break
+        seg_t.append(t)
+        seg_kind.append(0)
+        seg_x.append(x)
+        seg_v.append(v)
+        s, hit = _flight(lam, j, h, phi, t, x, v, t_end - t, wall, u, g2, g3, m2, m3, m4, ds)
+        x = x + v * s - 0.5 * s * s / lam
+        v = v - s / lam
+        t = t + s
+        wall = 0
+        pending = hit
+        if hit == 0:
+            break
+    else:
+        raise ReferenceError_(f"more than {max_events} events before t_end")
+
+    return NaiveRun(
+        impact_t=np.array(imp_t), impact_impulse=np.array(imp_I),
+        impact_flank=np.array(imp_fl, dtype=np.int8), impact_w=np.array(imp_w),
+        stick_intervals=np.array(sticks, dtype=np.float64).reshape(-1, 2),
+        seg_t=np.array(seg_t), seg_kind=np.array(seg_kind, dtype=np.int8),
+        seg_x=np.array(seg_x), seg_v=np.array(seg_v), t_end=float(t_end))
+
+
+def _flight(lam, j, h, phi, t, x, v, smax, wall, u, g2, g3, m2, m3, m4, ds):
+    """First contact of the parabola from (t, x, v) within ``smax``: ``(s, wall)`` or ``(smax, 0)``."""
+    def gaps(s):
+        xs = x + v * s - 0.5 * s * s / lam
+        ys = y_derivative(t + s, h, phi)
+        return xs - ys, ys + j - xs
+
+    s1 = ds if wall == 0 else _first_scan_point(u, g2, g3, m2, m3, m4, ds)
+    if s1 >= smax:
+        s1 = smax
+    grid = _scan_grid(s1, ds, smax)
+    ga0, gr0 = gaps(np.array([0.0]))
+    if wall == 0 and (ga0[0] <= 0.0 or gr0[0] <= 0.0):
+        raise ReferenceError_("flight starts on a wall without a leaving state")
+    ga1, gr1 = gaps(grid[:1])
+    if ga1[0] <= 0.0 or gr1[0] <= 0.0:
+        raise ReferenceError_(f"gap not positive at the first scan point s1={s1!r} "
+                              f"(g_a={ga1[0]!r}, g_r={gr1[0]!r})")
+    chunk = 4096
+    for start in range(0, len(grid), chunk):
+        sg = grid[start:start + chunk]
+        ga, gr = gaps(sg)
+        bad = (ga <= 0.0) | (gr <= 0.0)
+        if np.any(bad):
+            i = start + int(np.argmax(bad))
+            lo, hi = grid[i - 1], grid[i]
+            roots = []
+            for sgn, which in ((1, 0), (-1, 1)):
+                f = (lambda s, w=which: float(gaps(np.array([s]))[w][0]))
+                if f(hi) <= 0.0:
+                    root = brentq(f, lo, hi, xtol=1e-15, rtol=4 * np.finfo(float).eps, maxiter=200)
+                    roots.append((root, sgn))
+            roots.sort()
+            return roots[0]
+    return smax, 0
+
+
+def _release_time(lam, h, phi, sigma, t, t_end, ds):
+    """First time after ``t`` when the reaction ``σ (1 + Λ ÿ)`` reaches zero (or ``t_end``)."""
+    def react(tt):
+        return sigma * (1.0 + lam * y_derivative(tt, h, phi, 2))
+
+    grid = np.arange(t + ds, t_end + ds, ds)
+    grid = np.minimum(grid, t_end) if len(grid) else np.array([t_end])
+    chunk = 4096
+    lo_prev = t
+    for start in range(0, len(grid), chunk):
+        tg = grid[start:start + chunk]
+        vals = react(tg)
+        bad = vals <= 0.0
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            lo = tg[i - 1] if i > 0 else lo_prev
+            hi = tg[i]
+            if float(react(lo)) <= 0.0:
+                return lo
+            return brentq(lambda s: float(react(s)), lo, hi, xtol=1e-15,
+                          rtol=4 * np.finfo(float).eps, maxiter=200)
+        lo_prev = tg[-1]
+    return t_end
+
+
+def naive_sample(run: NaiveRun, t, lam, j, h, phi):
+    """Position and velocity of a :class:`NaiveRun` at times ``t`` (parabolas and walls)."""
+    t = np.asarray(t, dtype=np.float64)
+    idx = np.clip(np.searchsorted(run.seg_t, t, side="right") - 1, 0, len(run.seg_t) - 1)
+    s = t - run.seg_t[idx]
+    x = run.seg_x[idx] + run.seg_v[idx] * s - 0.5 * s * s / lam
+    v = run.seg_v[idx] - s / lam
+    kind = run.seg_kind[idx]
+    stuck = kind != 0
+    x[stuck] = y_derivative(t[stuck], h, phi) + np.where(kind[stuck] == -1, j, 0.0)
+    v[stuck] = y_derivative(t[stuck], h, phi, 1)
+    return x, v
+
+
+def ivp_simulate(lam, r, j, h, phi, v_stick, t0, x0, v0, t_end, rtol=1e-12, atol=1e-12,
+                 max_step=0.05, method="DOP853") -> NaiveRun:
+    """``solve_ivp`` reference: integrate ``ẋ = v, v̇ = −1/Λ`` with terminal events on both gaps.
+
+    After each event the impact law ``ẋ⁺ = ẏ − r w`` is applied and the integration restarts
+    from the wall.  ``max_step`` keeps a contact from being stepped over (the right-hand side is
+    a polynomial, so the error estimate alone would allow arbitrarily long steps).  A contact
+    with ``|w| < v_stick`` raises :class:`ReferenceError_`: this reference does not model stick
+    phases.
+    """
+    h = np.asarray(h, dtype=np.float64)
+    phi = np.asarray(phi, dtype=np.float64)
+    inv_lam = 1.0 / lam
+
+    def rhs(_t, z):
+        return [z[1], -inv_lam]
+
+    def gap_active(tt, z):
+        return z[0] - _y(tt, h, phi)
+
+    def gap_reverse(tt, z):
+        return _y(tt, h, phi) + j - z[0]
+
+    for ev in (gap_active, gap_reverse):
+        ev.terminal = True
+        ev.direction = -1
+
+    imp_t, imp_I, imp_fl, imp_w = [], [], [], []
+    seg_t, seg_x, seg_v = [], [], []
+    t, x, v = float(t0), float(x0), float(v0)
+    while t < t_end:
+        seg_t.append(t)
+        seg_x.append(x)
+        seg_v.append(v)
+        sol = solve_ivp(rhs, (t, t_end), [x, v], method=method, events=(gap_active, gap_reverse),
+                        rtol=rtol, atol=atol, max_step=max_step)
+        if sol.status == -1:
+            raise ReferenceError_(sol.message)
+        if sol.status == 0:
+            break
+        hits = [(float(te[0]), sigma, ye[0]) for te, ye, sigma
+                in zip(sol.t_events, sol.y_events, (1, -1)) if len(te)]
+        t, sigma, z = min(hits, key=lambda e: e[0])
+        yd = _y(t, h, phi, 1)
+        w = float(z[1]) - yd
+        if abs(w) < v_stick:
+            raise ReferenceError_(f"slow contact |w|={abs(w):.3g} < v_stick at t={t:.12g}: "
+                                  "stick phases are outside this reference")
+        vplus = yd - r * w
+        imp_t.append(t)
+        imp_I.append(vplus - float(z[1]))
+        imp_fl.append(sigma)
+        imp_w.append(w)
+        x = _y(t, h, phi) + (j if sigma == -1 else 0.0)
+        v = vplus
+    n = len(seg_t)
+    return NaiveRun(
+        impact_t=np.array(imp_t), impact_impulse=np.array(imp_I),
+        impact_flank=np.array(imp_fl, dtype=np.int8), impact_w=np.array(imp_w),
+        stick_intervals=np.zeros((0, 2)), seg_t=np.array(seg_t),
+        seg_kind=np.zeros(n, dtype=np.int8), seg_x=np.array(seg_x), seg_v=np.array(seg_v),
+        t_end=float(t_end))
