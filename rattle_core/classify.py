@@ -7,13 +7,15 @@ Definitions (all over the recorded window of ``P`` forcing periods, after the tr
 * **impacts per period**: recorded impacts on each flank divided by ``P``.
 * **stick fraction**: time in permanent contact divided by the window length.
 * **Lyapunov exponent λ**: largest exponent per unit dimensionless time, from the tangent
-  dynamics with saltation matrices (see ``solver``); ``−inf`` when the gear sticks, since a
-  stick phase collapses every perturbation.
-* **chaotic**: ``period == 0`` (non-repeating section) and ``λ > LYAP_CHAOS``.
+  dynamics with saltation matrices (see ``solver``), measured over the periods free of
+  sticking (a stick phase collapses every perturbation); ``−inf`` if every period sticks.
+* **chaotic**: ``period == 0`` (non-repeating section) and ``λ > LYAP_CHAOS``.  A chaotic
+  response may stick now and then (the paper's "chaotic responses beside stick-and-impact").
 * **rattle intensity**: ``Σ Ĩ² / P``, the impulse energy per forcing period; mean and RMS
   ``|Ĩ|`` per flank.
-* **regime** (paper §4): ``A`` permanent contact (no impact, stuck the whole window);
-  ``B`` impacts followed by permanent contact (some sticking, some impacts); ``C`` period 1,
+* **regime** (paper §4), first match wins: ``A`` permanent contact (no impact, stuck the
+  whole window); ``D`` chaotic; ``B`` impacts followed by permanent contact (some sticking,
+  some impacts); ``C`` period 1,
   one active-flank impact per period, none on the reverse; ``D`` chaotic; ``E`` period 1, one
   impact on each flank per period.  Other responses are ``P`` (another periodic response,
   described by :attr:`Classification.label`) or ``Q`` (non-repeating without a positive
@@ -130,10 +132,10 @@ def classify_arrays(impulse: np.ndarray, flank: np.ndarray, strobe_x: np.ndarray
     mr, rr = stats(rev)
     if n_act + n_rev == 0 and stick_fraction > 0.99:
         regime = "A"
-    elif stick_fraction > 0:
-        regime = "B"
     elif chaotic:
         regime = "D"
+    elif stick_fraction > 0:
+        regime = "B"
     elif period == 1 and n_rev == 0 and round(a_pp) == 1 and abs(a_pp - 1) < 0.02:
         regime = "C"
     elif period == 1 and abs(a_pp - 1) < 0.02 and abs(r_pp - 1) < 0.02:

@@ -53,10 +53,11 @@ def _safe_step(g, g1, g2, m2, m3):
     if c < -m2:
         c = -m2
     d = _root_free(g, g1, c)
-    if d > h:
-        d = h
+    if d < h:
+        # c ≥ −m2, so inside [0, h] the local bound is never worse than the global one
+        return d
     dg = _root_free(g, g1, -m2)
-    return d if d > dg else dg
+    return h if h > dg else dg
 
 
 @njit(cache=True, nogil=True)

@@ -52,8 +52,10 @@ _FLIGHT_MAX_IT = 100_000
 def _flight(lam, j, h, cphi, sphi, m2, m3, m4, tau0, x0, v0, smax, leave):
     """First contact of a flight from (tau0, x0, v0), up to ``smax``.
 
-    Returns ``(s, hit)``: hit = +1 active flank, −1 reverse flank, 0 none before smax,
-    2 iteration budget exceeded.  ``leave`` = ±1 when the flight starts on that wall with zero
+    Returns ``(s, hit, y0, y1, y2, y3, y4)``: hit = +1 active flank, −1 reverse flank, 0 none
+    before smax, 2 iteration budget exceeded; ``y0..y4`` are the excitation and its first four
+    derivatives at the contact, carried to the polished time to first order (the polishing step
+    is ≤ 1e-6, so the error is below 1e-12) to spare the caller an evaluation.  ``leave`` = ±1 when the flight starts on that wall with zero
     relative velocity (after a stick phase or a plastic contact).
     """
     inv_lam = 1.0 / lam
@@ -72,7 +74,7 @@ def _flight(lam, j, h, cphi, sphi, m2, m3, m4, tau0, x0, v0, smax, leave):
         if d_other < s:
             s = d_other
         if s >= smax:
-            return smax, 0
+            return smax, 0, 0.0, 0.0, 0.0, 0.0, 0.0
     for _ in range(_FLIGHT_MAX_IT):
         x = x0 + v0 * s - 0.5 * s * s * inv_lam
         vv = v0 - s * inv_lam
@@ -81,23 +83,25 @@ def _flight(lam, j, h, cphi, sphi, m2, m3, m4, tau0, x0, v0, smax, leave):
         ga1 = vv - y1
         ga2 = -inv_lam - y2
         gr = j - ga
+        hit = 0
         if ga <= CONTACT_TOL and ga1 <= 0.0:
-            if ga1 < -1e-7:
-                s += ga / (-ga1)
-            return s, 1
-        if gr <= CONTACT_TOL and ga1 >= 0.0:
-            if ga1 > 1e-7:
-                s += gr / ga1
-            return s, -1
+            hit = 1
+            delta = ga / (-ga1) if ga1 < -1e-7 else 0.0
+        elif gr <= CONTACT_TOL and ga1 >= 0.0:
+            hit = -1
+            delta = gr / ga1 if ga1 > 1e-7 else 0.0
+        if hit != 0:
+            return (s + delta, hit, y0 + y1 * delta, y1 + y2 * delta, y2 + y3 * delta,
+                    y3 + y4 * delta, y4)
         da = _safe_step(ga if ga > 0.0 else 0.0, ga1, ga2, m2, m3)
         dr = _safe_step(gr if gr > 0.0 else 0.0, -ga1, -ga2, m2, m3)
         d = da if da < dr else dr
         if d < MIN_STEP:
             d = MIN_STEP
         if s + d >= smax:
-            return smax, 0
+            return smax, 0, 0.0, 0.0, 0.0, 0.0, 0.0
         s += d
-    return s, 2
+    return s, 2, 0.0, 0.0, 0.0, 0.0, 0.0
 
 
 @njit(cache=True, nogil=True)
@@ -118,6 +122,13 @@ def _release(lam, h, cphi, sphi, mb, tau0, smax, sigma):
         f1 = sigma * lam * y3
         f2 = sigma * lam * y4
         if f <= tol and f1 < 0.0:
+            if f2 > 0.0 and f - 0.5 * f1 * f1 / f2 > -tol:
+                # a tangential zero: R̃ touches 0 and turns back, so the contact holds; jump
+                # past the touching point, where the search resumes with R̃ rising
+                s += -f1 / f2 + 2.0 * np.sqrt(2.0 * tol / f2)
+                if s >= smax:
+                    return smax, 0
+                continue
             if f1 < -1e-7:
                 s += f / (-f1)
             if s < 0.0:
@@ -181,8 +192,15 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
     imp_count = 0
     dx = 0.7071067811865476
     dv = 0.7071067811865476
+    # Lyapunov bookkeeping: growth is buffered and committed at the first impact of each new
+    # period; a stick phase discards the buffer (its chatter saltations are meaningless once
+    # the perturbation collapses), so the exponent measures the flight dynamics between sticks.
     lyap_sum = 0.0
     lyap_time = 0.0
+    buf = 0.0
+    n_commit = n_rec
+    t_commit = n_rec * TWO_PI + tau_rec
+    committing = True
     stuck_in_window = False
     stick_time = 0.0
     n_stick = 0
@@ -190,6 +208,7 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
     # a start on a wall, at rest on it or moving into it, is a contact at t0
     y0, y1, y2, y3, y4 = _y_derivs(tau, h, cphi, sphi)
     pending = 0
+    c0, c1, c2, c3, c4 = y0, y1, y2, y3, y4
     if x - y0 <= CONTACT_TOL and v - y1 <= 0.0:
         pending = 1
     elif y0 + j - x <= CONTACT_TOL and v - y1 >= 0.0:
@@ -204,7 +223,7 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
         if pending != 0:
             sigma = pending
             pending = 0
-            y0, y1, y2, y3, y4 = _y_derivs(tau, h, cphi, sphi)
+            y0, y1, y2, y3, y4c = c0, c1, c2, c3, c4
             w = v - y1
             x = y0 if sigma == 1 else y0 + j
             zero_rel = False
@@ -248,7 +267,9 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
                 f = sigma * (1.0 + lam * y2)
                 f1 = sigma * lam * y3
                 tol = CONTACT_TOL * (1.0 + lam * mb[2])
-                if f > tol or (f > -tol and f1 > 0.0):
+                f2 = sigma * lam * y4c
+                if f > tol or (f > -tol and (f1 > 0.0 or (f2 > 0.0 and
+                                                        f - 0.5 * f1 * f1 / f2 > -tol))):
                     mode = sigma
                     if tangent:
                         dx = 0.0
@@ -259,14 +280,25 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
                 nrm = np.sqrt(dx * dx + dv * dv)
                 if nrm > 0.0:
                     if recording:
-                        lyap_sum += np.log(nrm)
+                        buf += np.log(nrm)
                     dx /= nrm
                     dv /= nrm
+                if mode != FLIGHT:
+                    buf = 0.0
+                    committing = False
+                elif recording and committing and n > n_commit:
+                    t_now = n * TWO_PI + tau
+                    lyap_sum += buf
+                    lyap_time += t_now - t_commit
+                    buf = 0.0
+                    t_commit = t_now
+                    n_commit = n
             continue
 
         seg_start_t = n * TWO_PI + tau
         if mode == FLIGHT:
-            s, hit = _flight(lam, j, h, cphi, sphi, m2, m3, m4, tau, x, v, rem, leave)
+            s, hit, c0, c1, c2, c3, c4 = _flight(lam, j, h, cphi, sphi, m2, m3, m4, tau, x, v, rem,
+                                             leave)
             leave = 0
             if hit == 2:
                 status = STALL
@@ -320,7 +352,6 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
                 stick_time += min(s, n_after * TWO_PI + tau_after - t_rec)
                 n_stick += 1
                 stuck_in_window = True
-            lyap_time += min(s, (n_after - n_rec) * TWO_PI + (tau_after - tau_rec))
 
         if mode == FLIGHT:
             x = x + v * s - 0.5 * s * s * inv_lam
@@ -340,17 +371,25 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
                 leave = mode
                 mode = FLIGHT
                 if tangent:
-                    # release time depends on the phase only: perturbations stay collapsed
+                    # the release time depends on the phase only, so the perturbation stays
+                    # collapsed; a fresh unit vector restarts the measurement
                     dx = 0.7071067811865476
                     dv = 0.7071067811865476
+                    committing = True
+                    buf = 0.0
+                    n_commit = n
+                    t_commit = n * TWO_PI + tau
         if rem <= s:
             break
 
-    if stuck_in_window:
-        lyap_sum = -np.inf
-    elif tangent:
+    if tangent and committing and mode == FLIGHT:
         nrm = np.sqrt(dx * dx + dv * dv)
-        if nrm > 0.0:
-            lyap_sum += np.log(nrm)
+        t_now = n * TWO_PI + tau
+        if nrm > 0.0 and t_now > t_commit:
+            lyap_sum += buf + np.log(nrm)
+            lyap_time += t_now - t_commit
+    if lyap_time <= 0.0 and stuck_in_window:
+        lyap_sum = -np.inf
+        lyap_time = 1.0
     return (status, n_imp, n_seg, n_str, n, tau, x, v, mode, lyap_sum, lyap_time,
             stick_time, n_stick)

@@ -88,7 +88,9 @@ class Trajectory:
     def lyapunov(self) -> float:
         """Largest Lyapunov exponent per unit dimensionless time (NaN if not computed).
 
-        ``-inf`` when the gear sticks in the window: sticking collapses every perturbation.
+        Measured on the flight dynamics between stick phases: a stick phase collapses every
+        perturbation, so periods that end in sticking are left out.  ``-inf`` when no period of
+        the window is free of sticking.
         """
         if not self.settings.get("lyapunov") or self.lyapunov_time <= 0:
             return math.nan
