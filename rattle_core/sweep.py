@@ -91,36 +91,46 @@ class SweepResult:
     cancelled: bool = False
 
 
-def _param_arrays(base: RattleParams, name: str, values: np.ndarray):
-    """Per-value parameter arrays; validates every value through RattleParams."""
-    kind, k = parse_name(name)
-    kmax = max(base.n_harmonics, k)
-    probe = base.with_value(name, base.get(name)) if kind in ("h", "phi") else base
-    # validation of the extreme values is enough: every check is a range check
-    for v in (float(np.min(values)), float(np.max(values))):
-        probe.with_value(name, v)
-    nv = len(values)
+def _param_arrays(base: RattleParams, columns: dict[str, np.ndarray]):
+    """Per-value parameter arrays for one or more swept names; validates every value range."""
+    nv = len(next(iter(columns.values())))
+    kmax = base.n_harmonics
+    for name in columns:
+        kind, k = parse_name(name)
+        kmax = max(kmax, k)
+    for name, values in columns.items():
+        # every check is a range check, so the extreme values settle the whole column
+        for v in (float(np.min(values)), float(np.max(values))):
+            base.with_value(name, v)
     h = np.zeros((nv, kmax))
     phi = np.zeros((nv, kmax))
     h[:, :base.n_harmonics] = base.h
     phi[:, :base.n_harmonics] = base.phi
     cols = {"lam": np.full(nv, base.lam), "r": np.full(nv, base.r), "j": np.full(nv, base.j),
             "v_stick": np.full(nv, base.v_stick)}
-    if kind == "h":
-        h[:, k - 1] = values
-    elif kind == "phi":
-        phi[:, k - 1] = np.deg2rad(values)
-    else:
-        cols[kind] = values.astype(np.float64)
+    for name, values in columns.items():
+        kind, k = parse_name(name)
+        if kind == "h":
+            h[:, k - 1] = values
+        elif kind == "phi":
+            phi[:, k - 1] = np.deg2rad(values)
+        else:
+            cols[kind] = np.asarray(values, dtype=np.float64)
     return cols["lam"], cols["r"], cols["j"], h, phi, cols["v_stick"]
 
 
-def _run_chunk(base: RattleParams, name: str, values: np.ndarray, transient: int, record: int,
-               x0: float | None, v0: float | np.ndarray,
+def _run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transient: int,
+               record: int, x0: float | np.ndarray | None, v0: float | np.ndarray,
                max_impacts_per_period: int = solver.MAX_IMPACTS_PER_PERIOD) -> dict:
-    """Run one chunk of values in parallel; returns plain arrays (picklable, for Dask too)."""
+    """Run one chunk of values in parallel; returns plain arrays (picklable, for Dask too).
+
+    ``name`` is one swept name (``values`` its values) or a dict of name → per-value arrays
+    (then ``values`` labels the rows).  ``x0``/``v0`` may be per-value arrays of absolute
+    start states; positions are clipped into each value's backlash.
+    """
     values = np.asarray(values, dtype=np.float64)
-    lam, r, j, h, phi, vs = _param_arrays(base, name, values)
+    columns = name if isinstance(name, dict) else {name: values}
+    lam, r, j, h, phi, vs = _param_arrays(base, columns)
     nv = len(values)
     y0 = np.array([float(excitation(0.0, h[i], phi[i])) for i in range(nv)])
     if x0 is None:
@@ -261,7 +271,7 @@ def sweep(base: RattleParams, name: str, values: Sequence[float], transient: int
     if not isinstance(base, RattleParams):
         raise ValueError(f"base must be a RattleParams, got {type(base).__name__}")
     vals, transient, record = validate_sweep_args(name, values, transient, record, mode)
-    _param_arrays(base, name, vals)  # validates the range of the swept values
+    _param_arrays(base, {name: vals})  # validates the range of the swept values
     if x0 is not None:
         x0 = check_range("x0", x0, -1e6, 1e6)
     v0 = check_range("v0", v0, -1e6, 1e6)
