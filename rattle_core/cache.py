@@ -155,3 +155,72 @@ def find_asset(base: RattleParams, name: str) -> SweepResult | None:
         if res.params.with_value(name, base.get(name)).canonical() == base.canonical():
             return res
     return None
+
+
+def save_map(path: Path | str, result, key: str | None = None) -> None:
+    """Write a :class:`~rattle_core.maps.MapResult` atomically."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    meta = {"kind": result.kind, "x_name": result.x_name, "y_name": result.y_name,
+            "params": result.params.to_dict(), "settings": result.settings,
+            "attractors": result.attractors, "key": key, "schema": SCHEMA_VERSION,
+            "solver": SOLVER_VERSION}
+    arrays = {"meta": np.array(json.dumps(meta)), "x_values": result.x_values,
+              "y_values": result.y_values}
+    arrays.update({f"f_{k}": v for k, v in result.fields.items()})
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".npz")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            np.savez_compressed(f, **arrays)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def load_map(path: Path | str):
+    """Read a map written by :func:`save_map`; returns ``(result, meta)``."""
+    from .maps import MapResult
+    with np.load(path, allow_pickle=False) as z:
+        meta = json.loads(str(z["meta"]))
+        fields = {k[2:]: z[k] for k in z.files if k.startswith("f_")}
+        xv, yv = z["x_values"], z["y_values"]
+    return MapResult(kind=meta["kind"], x_name=meta["x_name"], y_name=meta["y_name"],
+                     x_values=xv, y_values=yv, params=RattleParams.from_dict(meta["params"]),
+                     settings=meta["settings"], fields=fields,
+                     attractors=[dict(a, section_point=tuple(a["section_point"]))
+                                 for a in meta["attractors"]]), meta
+
+
+def cached_map(kind: str, params: RattleParams, x_name: str, x_values, y_name: str, y_values,
+               directory: Path | str | None = None, **kwargs: Any):
+    """:func:`~rattle_core.maps.regime_map` (``kind="regime"``) or
+    :func:`~rattle_core.maps.basin_map` (``kind="basin"``; names are ``x0``/``v0``), served from
+    the disk cache when the same request ran before.  A cancelled map is not stored."""
+    from . import maps
+    if kind not in ("regime", "basin"):
+        raise ValueError(f"kind = {kind!r}; allowed: 'regime' or 'basin'")
+    keyed = {k: v for k, v in kwargs.items() if k in ("transient", "record", "x0", "v0", "decimals")}
+    key = canonical_hash({"kind": kind, "params": params.canonical(), "x_name": x_name,
+                          "x_values": np.asarray(x_values, dtype=np.float64), "y_name": y_name,
+                          "y_values": np.asarray(y_values, dtype=np.float64), "settings": keyed,
+                          "schema": SCHEMA_VERSION, "solver": SOLVER_VERSION})
+    path = (Path(directory) if directory is not None else cache_dir()) / f"map-{key[:32]}.npz"
+    if path.exists():
+        try:
+            result, meta = load_map(path)
+            if meta.get("key") == key:
+                return result
+        except Exception:
+            pass  # unreadable entry: recompute and overwrite it below
+    if kind == "regime":
+        result = maps.regime_map(params, x_name, x_values, y_name, y_values, **kwargs)
+    else:
+        result = maps.basin_map(params, x_values, y_values, **kwargs)
+    if not result.cancelled:
+        try:
+            save_map(path, result, key=key)
+        except OSError:
+            pass  # a read-only or full disk must not cost the user the computed map
+    return result

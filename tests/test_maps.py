@@ -93,3 +93,22 @@ def test_dask_local_cluster_equals_local():
                             chunk_size=5, executor=client)
     for k in local.fields:
         np.testing.assert_array_equal(local.fields[k], remote.fields[k])
+
+
+def test_maps_are_cached(tmp_path, monkeypatch):
+    """A repeated map request is served from disk, identical, without recomputing."""
+    from rattle_core import cache, maps
+    kw = dict(transient=30, record=20)
+    first = cache.cached_map("regime", BASE, "lam", [1.0, 2.0], "phi2", [0.0, 90.0],
+                             directory=tmp_path, **kw)
+
+    def boom(*a, **k):
+        raise AssertionError("recomputed")
+    monkeypatch.setattr(maps, "regime_map", boom)
+    again = cache.cached_map("regime", BASE, "lam", [1.0, 2.0], "phi2", [0.0, 90.0],
+                             directory=tmp_path, **kw)
+    for k in first.fields:
+        np.testing.assert_array_equal(first.fields[k], again.fields[k])
+    with pytest.raises(AssertionError, match="recomputed"):
+        cache.cached_map("regime", BASE, "lam", [1.0, 2.5], "phi2", [0.0, 90.0],
+                         directory=tmp_path, **kw)
