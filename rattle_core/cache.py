@@ -64,7 +64,9 @@ def save_result(path: Path | str, result: SweepResult, compact: bool = False,
     arrays: dict[str, Any] = {
         "meta": np.array(json.dumps(meta)),
         "values": np.asarray(result.values, dtype=np.float64),
-        "t_value": result.table["value"].to_numpy(dtype=fdt),
+        # the swept value stays float64 even in compact form: it identifies the row's value
+        # (``table.value == summary.value``); runs of equal values cost almost nothing compressed
+        "t_value": result.table["value"].to_numpy(dtype=np.float64),
         "t_impulse": result.table["impulse"].to_numpy(dtype=fdt),
         "t_flank": result.table["flank"].to_numpy(dtype=np.int8),
         "t_phase": result.table["phase"].to_numpy(dtype=fdt),
