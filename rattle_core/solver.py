@@ -84,13 +84,14 @@ def _flight(lam, j, h, cphi, sphi, m2, m3, m4, tau0, x0, v0, smax, leave):
         ga2 = -inv_lam - y2
         gr = j - ga
         hit = 0
-        # on a wall and moving off it slower than the resolution V_FLOOR, the gear is at rest
-        # there: a contact (the reaction then decides), or the search would crawl in steps
-        # of rounding size (Λ ≈ 1, where R̃ touches zero)
-        if ga <= CONTACT_TOL and ga1 < V_FLOOR:
+        # on a wall (after the start) and moving off it slower than the resolution V_FLOOR,
+        # the gear is at rest there: a contact (the reaction then decides), or the search
+        # would crawl in steps of rounding size (Λ ≈ 1, where R̃ touches zero)
+        slow = V_FLOOR if s > 0.0 else 0.0
+        if ga <= CONTACT_TOL and ga1 <= slow:
             hit = 1
             delta = ga / (-ga1) if ga1 < -1e-7 else 0.0
-        elif gr <= CONTACT_TOL and ga1 > -V_FLOOR:
+        elif gr <= CONTACT_TOL and ga1 >= -slow:
             hit = -1
             delta = gr / ga1 if ga1 > 1e-7 else 0.0
         if hit != 0:
