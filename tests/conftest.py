@@ -1,0 +1,106 @@
+"""Shared pytest configuration.
+
+* Browser tests (``@pytest.mark.ui``) drive Debian's Chromium through pytest-playwright, since
+  Playwright cannot download its own browser here; they are skipped, with the reason, when
+  Chromium or Playwright is missing (``scripts/test.sh`` installs both).
+* ``dashboard_server`` serves the real dashboard once per test session on a free port and
+  records every log line, so tests can assert that the server printed no traceback.
+"""
+from __future__ import annotations
+
+import importlib.util
+import logging
+import os
+import shutil
+import socket
+import time
+import urllib.request
+
+import pytest
+
+CHROMIUM = os.environ.get("RATTLE_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"
+CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                 "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+
+
+def _ui_unavailable() -> str | None:
+    if importlib.util.find_spec("playwright") is None:
+        return "pytest-playwright is not installed (scripts/test.sh installs it)"
+    if not os.path.exists(CHROMIUM):
+        return f"Chromium not found at {CHROMIUM} (scripts/test.sh installs Debian's chromium)"
+    return None
+
+
+def pytest_collection_modifyitems(config, items):
+    reason = _ui_unavailable()
+    if reason is None:
+        return
+    skip = pytest.mark.skip(reason=reason)
+    for item in items:
+        if "ui" in item.keywords:
+            item.add_marker(skip)
+
+
+@pytest.fixture(scope="session")
+def browser_type_launch_args(browser_type_launch_args):
+    """Launch Debian's Chromium headless, offline-friendly, instead of a downloaded browser."""
+    return {**browser_type_launch_args, "executable_path": CHROMIUM, "args": CHROMIUM_ARGS,
+            "headless": True}
+
+
+@pytest.fixture(scope="session")
+def browser_context_args(browser_context_args):
+    return {**browser_context_args, "viewport": {"width": 1400, "height": 1000}}
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class LogRecorder(logging.Handler):
+    """Keeps every record the server logs while the UI tests run."""
+
+    def __init__(self):
+        super().__init__(level=logging.DEBUG)
+        self.records: list[logging.LogRecord] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.records.append(record)
+
+    def tracebacks(self) -> list[str]:
+        out = []
+        for r in self.records:
+            text = r.getMessage()
+            if r.exc_info or "Traceback (most recent call last)" in text:
+                out.append(f"{r.name}: {text}")
+        return out
+
+
+@pytest.fixture(scope="session")
+def dashboard_server():
+    """URL of the dashboard served in this process (threaded), and its log recorder."""
+    from app.main import serve
+
+    recorder = LogRecorder()
+    root = logging.getLogger()
+    root.addHandler(recorder)
+    port = free_port()
+    server = serve(port=port, address="localhost", show=False, threaded=True)
+    url = f"http://localhost:{port}"
+    deadline = time.monotonic() + 120
+    while True:
+        try:
+            with urllib.request.urlopen(f"{url}/liveness", timeout=2) as resp:
+                if resp.status == 200:
+                    break
+        except OSError:
+            pass
+        if time.monotonic() > deadline:
+            server.stop()
+            raise RuntimeError(f"dashboard did not become live at {url}")
+        time.sleep(0.2)
+    yield {"url": url, "log": recorder}
+    server.stop()
+    root.removeHandler(recorder)

@@ -1,0 +1,219 @@
+"""Browser tests: headless Chromium drives the real dashboard served by ``app.main.serve``.
+
+The page's state is read back from the browser itself: the values shown in the controls'
+entry boxes, the alerts beside them, and the data the plots hold (``Bokeh.documents``), so a
+test passes only if the change travelled server → websocket → page.
+"""
+from __future__ import annotations
+
+import math
+import re
+from urllib.parse import urlparse
+
+import pytest
+
+pytestmark = [pytest.mark.ui, pytest.mark.timeout(300)]
+
+READY = """() => {
+  const d = window.Bokeh && Bokeh.documents && Bokeh.documents[0];
+  if (!d) return false;
+  const m = d.get_model_by_name('th_motion');
+  return m != null && m.get_length() > 0;
+}"""
+
+CHECKSUM = """() => {
+  const x = Bokeh.documents[0].get_model_by_name('th_motion').get_column('x');
+  let s = 0;
+  for (let i = 0; i < x.length; i++) s += x[i] * ((i % 7) + 1);
+  return s;
+}"""
+
+BIF_READY = """() => {
+  const m = Bokeh.documents[0].get_model_by_name('bif_image');
+  return m != null && m.get_length() > 0;
+}"""
+
+BIF_POINT = """(frac) => {
+  const m = Bokeh.documents[0].get_model_by_name('bifurcation');
+  const v = Bokeh.index.find_one(m);
+  const r = v.el.getBoundingClientRect();
+  const b = v.frame.bbox;
+  const sx = b.left + frac * b.width;
+  return {x: r.left + sx, y: r.top + b.top + 0.5 * b.height, value: v.frame.x_scale.invert(sx)};
+}"""
+
+
+def open_dashboard(page, server, query: str = "") -> list[str]:
+    """Load the dashboard and wait for its first time history; return the console errors."""
+    errors: list[str] = []
+    page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.goto(f"{server['url']}/{query}")
+    page.wait_for_function(READY, timeout=60_000)
+    return errors
+
+
+def box(page, name: str):
+    """The exact-value entry box of control ``name``."""
+    return page.locator(f".ctl-{name} input.bk-input").first
+
+
+def message(page, name: str) -> str:
+    """Text of the alert beside control ``name`` (empty when hidden)."""
+    alert = page.locator(f".msg-{name}").first
+    if not alert.is_visible():
+        return ""
+    return " ".join(alert.locator("p").all_inner_texts())
+
+
+def box_value(page, name: str) -> float:
+    return float(box(page, name).input_value())
+
+
+def wait_box(page, name: str, expected: float, tol: float = 1e-9, timeout: float = 20_000) -> None:
+    """Wait until the entry box of ``name`` shows ``expected``."""
+    waited, step = 0.0, 100
+    while True:
+        try:
+            if abs(box_value(page, name) - expected) <= tol:
+                return
+        except ValueError:
+            pass
+        if waited >= timeout:
+            raise AssertionError(f"{name} box shows {box(page, name).input_value()!r}, expected {expected}")
+        page.wait_for_timeout(step)
+        waited += step
+
+
+def test_page_loads_without_console_errors(page, dashboard_server):
+    """The dashboard loads, draws its views and badge, with no browser console error."""
+    errors = open_dashboard(page, dashboard_server)
+    badge = page.locator(".rattle-badge")
+    badge.wait_for(timeout=30_000)
+    assert re.match(r"^[A-EPQ]$", badge.get_attribute("data-regime"))
+    assert box_value(page, "lam") == pytest.approx(3.3)
+    assert box_value(page, "r") == pytest.approx(0.65)
+    assert box_value(page, "j") == pytest.approx(8.0)
+    page.wait_for_timeout(1000)
+    assert errors == []
+
+
+def test_lambda_slider_changes_time_history(page, dashboard_server):
+    """Focusing the Λ slider handle and pressing ArrowRight moves Λ and redraws x(t)."""
+    open_dashboard(page, dashboard_server)
+    before = page.evaluate(CHECKSUM)
+    handle = page.locator(".ctl-lam .noUi-handle").first
+    handle.focus()
+    for _ in range(5):
+        page.keyboard.press("ArrowRight")
+    wait_box(page, "lam", 3.35, tol=1e-6)
+    page.wait_for_function(f"() => Math.abs(({CHECKSUM})() - {before!r}) > 1e-6", timeout=20_000)
+    assert "lam=3.35" in page.url
+
+
+def test_preset_loads_its_parameters(page, dashboard_server):
+    """One click on the Fig 8 preset sets Λ = 3.3, H₂/H₁ = 0.25 and the paper's φ₂ = 90° (core 180°)."""
+    open_dashboard(page, dashboard_server, "?lam=1.5&h2=0.1&phi2=10")
+    wait_box(page, "lam", 1.5)
+    before = page.evaluate(CHECKSUM)
+    page.locator(".preset-Fig8 button").first.click()
+    wait_box(page, "lam", 3.3)
+    wait_box(page, "h2", 0.25)
+    wait_box(page, "phi2", 180.0)
+    page.wait_for_function(f"() => Math.abs(({CHECKSUM})() - {before!r}) > 1e-6", timeout=20_000)
+    page.locator(".rattle-badge[data-regime='E']").wait_for(timeout=20_000)
+    assert "phi2=180" in page.url
+
+
+def test_click_on_bifurcation_diagram_sets_lambda(page, dashboard_server):
+    """Clicking the bifurcation diagram at some Λ moves the Λ control (and the views) there."""
+    open_dashboard(page, dashboard_server)
+    page.wait_for_function(BIF_READY, timeout=120_000)
+    target = page.evaluate(BIF_POINT, 0.3)
+    assert abs(target["value"] - 3.3) > 0.2
+    before = page.evaluate(CHECKSUM)
+    page.mouse.click(target["x"], target["y"])
+    wait_box(page, "lam", round(target["value"], 4), tol=0.02)
+    page.wait_for_function(f"() => Math.abs(({CHECKSUM})() - {before!r}) > 1e-6", timeout=20_000)
+
+
+def test_url_parameters_restore_the_view(page, dashboard_server):
+    """A link with parameters opens with exactly those values in the controls."""
+    open_dashboard(page, dashboard_server, "?lam=2.2&r=0.5&j=6&h2=0.1&phi2=30&strobe=45")
+    wait_box(page, "lam", 2.2)
+    wait_box(page, "r", 0.5)
+    wait_box(page, "j", 6.0)
+    wait_box(page, "h2", 0.1)
+    wait_box(page, "phi2", 30.0)
+    wait_box(page, "strobe", 45.0)
+    assert page.locator(".msg-global").first.is_hidden()
+
+
+def test_garbage_url_parameters_show_messages_and_keep_defaults(page, dashboard_server):
+    """Garbage URL values leave a message beside their control and the default view; no traceback."""
+    errors = open_dashboard(page, dashboard_server, "?lam=abc&j=-3&r=0.4&harmonics=zz&x0=1e5")
+    wait_box(page, "r", 0.4)
+    assert box_value(page, "lam") == pytest.approx(3.3)
+    assert box_value(page, "j") == pytest.approx(8.0)
+    page.locator(".msg-lam").first.wait_for(state="visible", timeout=10_000)
+    assert "Λ must be a number" in message(page, "lam")
+    assert "outside the allowed range" in message(page, "j")
+    assert "harmonic 'zz'" in message(page, "harmonics")
+    assert "x0" in message(page, "x0")
+    page.wait_for_function("() => !window.location.search.includes('abc')", timeout=10_000)
+    assert "lam=3.3" in page.url and "r=0.4" in page.url
+    assert errors == []
+    assert dashboard_server["log"].tracebacks() == []
+
+
+def test_out_of_range_typed_value_is_rejected_beside_the_control(page, dashboard_server):
+    """Typing Λ = −5 shows a message beside Λ, keeps Λ = 3.3 and leaves the time history as it was."""
+    open_dashboard(page, dashboard_server)
+    before = page.evaluate(CHECKSUM)
+    b = box(page, "lam")
+    b.fill("-5")
+    b.press("Enter")
+    page.locator(".msg-lam").first.wait_for(state="visible", timeout=10_000)
+    assert "outside the allowed range" in message(page, "lam")
+    wait_box(page, "lam", 3.3)
+    assert page.evaluate(CHECKSUM) == pytest.approx(before)
+    assert dashboard_server["log"].tracebacks() == []
+
+
+def test_no_request_leaves_localhost(page, dashboard_server):
+    """Loading and using the dashboard requests nothing from any host but the local server."""
+    urls: list[str] = []
+    page.on("request", lambda r: urls.append(r.url))
+    open_dashboard(page, dashboard_server)
+    page.locator(".preset-Fig7 button").first.click()
+    wait_box(page, "lam", 3.3)
+    page.wait_for_timeout(1500)
+    hosts = {urlparse(u).hostname for u in urls if not u.startswith(("data:", "blob:"))}
+    assert len(urls) > 5
+    assert hosts <= {"localhost", "127.0.0.1"}, hosts
+
+
+def test_three_sessions_keep_their_own_state(browser, dashboard_server):
+    """Three concurrent sessions changed differently each keep their own parameters and plots."""
+    contexts = [browser.new_context(viewport={"width": 1400, "height": 1000}) for _ in range(3)]
+    try:
+        pages = [c.new_page() for c in contexts]
+        for p in pages:
+            open_dashboard(p, dashboard_server)
+        pages[0].locator(".preset-Fig8 button").first.click()
+        b = box(pages[1], "lam")
+        b.fill("2")
+        b.press("Enter")
+        wait_box(pages[0], "phi2", 180.0)
+        wait_box(pages[1], "lam", 2.0)
+        pages[1].wait_for_timeout(1000)
+        sums = [p.evaluate(CHECKSUM) for p in pages]
+        assert box_value(pages[0], "lam") == pytest.approx(3.3)
+        assert box_value(pages[1], "phi2") == pytest.approx(-135.0)
+        assert box_value(pages[2], "lam") == pytest.approx(3.3)
+        assert box_value(pages[2], "phi2") == pytest.approx(-135.0)
+        assert len({round(s, 6) for s in sums}) == 3
+        assert all(math.isfinite(s) for s in sums)
+    finally:
+        for c in contexts:
+            c.close()
