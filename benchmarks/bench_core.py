@@ -1,0 +1,215 @@
+"""Speed of the exact rattle solver, against a ``solve_ivp`` baseline, in one run.
+
+Prints, for regime E (Λ = 3.3, harmonic) and two chaotic cases:
+
+* impacts per second and simulated forcing periods per second on one core, after compilation
+  (best of several repeats, with and without segment recording);
+* the same rates for ``scipy.integrate.solve_ivp`` with terminal events (``tests/naive.py``),
+  run over fewer periods and extrapolated, and the ratio between the two.  The tight baseline
+  (DOP853, rtol = atol = 1e-12, max_step = 0.05) reproduces the solver's impact times to 1e-8;
+  a lax one (rtol = 1e-8, atol = 1e-10, max_step = 0.2) is shown too, with its error, so the
+  ratio does not rest on a slow choice of settings;
+* the cold start (a fresh interpreter: import plus first ``simulate`` with an empty numba cache)
+  and the warm start (the same, with the cache filled).
+
+Targets, printed beside the figures: ≥ 2e6 impacts/s on one core, ≥ 1000× the baseline,
+cold start ≤ 15 s, warm start ≤ 1.5 s.
+
+Run from the repository root::
+
+    .venv/bin/python benchmarks/bench_core.py            # full run, about a minute
+    .venv/bin/python benchmarks/bench_core.py --quick    # fewer periods and repeats
+"""
+from __future__ import annotations
+
+import os
+
+# one core: numba reads this when it is first imported
+os.environ["NUMBA_NUM_THREADS"] = "1"
+
+import argparse  # noqa: E402
+import platform  # noqa: E402
+import statistics  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+
+import numba  # noqa: E402
+
+from naive import ReferenceError_, ivp_simulate  # noqa: E402
+from rattle_core import RattleParams, simulate  # noqa: E402
+
+TWO_PI = 2.0 * np.pi
+TARGET_IMPACTS_PER_S = 2e6
+TARGET_RATIO = 1000.0
+TARGET_COLD_S = 15.0
+TARGET_WARM_S = 1.5
+
+CASES = {
+    "E: harmonic, Λ = 3.3 (periodic, 2 impacts/period)": RattleParams(lam=3.3),
+    "D: harmonic, Λ = 1.16 (chaotic)": RattleParams(lam=1.16),
+    "chaotic: Λ = 3.3, H2/H1 = 0.25, φ2 = 45° (paper's reading, Fig. 7)":
+        RattleParams.paper(lam=3.3, amplitudes=(1.0, 0.25), phases_deg=(0.0, 45.0)),
+}
+
+
+def verdict(ok: bool) -> str:
+    return "meets target" if ok else "BELOW TARGET"
+
+
+def time_solver(p: RattleParams, periods: int, repeats: int, record_segments: bool):
+    """Best wall time of ``simulate`` over ``repeats`` runs, after a transient of 200 periods."""
+    start = simulate(p, periods=1, transient=200)
+    t0, x0, v0, _ = start.final_state
+    best = np.inf
+    tr = None
+    for _ in range(repeats):
+        tic = time.perf_counter()
+        tr = simulate(p, periods=periods, t0=t0, x0=x0, v0=v0, record_segments=record_segments)
+        best = min(best, time.perf_counter() - tic)
+    return best, tr, (t0, x0, v0)
+
+
+def baseline_window(tr, periods: int):
+    """Start of a window of ``periods`` periods with no slow contact (solve_ivp has no stick phases)."""
+    slow = np.abs(tr.impact_w) < 1e-3
+    starts = tr.t_start + TWO_PI * np.arange(0, int(tr.periods) - periods)
+    for ts in starts:
+        inside = (tr.impact_t >= ts) & (tr.impact_t < ts + periods * TWO_PI)
+        stuck = np.any((tr.stick_intervals[:, 1] > ts)
+                       & (tr.stick_intervals[:, 0] < ts + periods * TWO_PI))
+        if not np.any(slow & inside) and not stuck and np.count_nonzero(inside) > 0:
+            return ts
+    return None
+
+
+BASELINES = {
+    "tight": dict(rtol=1e-12, atol=1e-12, max_step=0.05),
+    "lax": dict(rtol=1e-8, atol=1e-10, max_step=0.2),
+}
+
+
+def time_baseline(p: RattleParams, tr, periods: int, settings: dict):
+    """solve_ivp over ``periods`` periods from the solver's own state; returns rates and error."""
+    ts = baseline_window(tr, periods)
+    if ts is None:
+        return None
+    x, v = tr.sample(np.array([ts]))
+    tic = time.perf_counter()
+    ref = ivp_simulate(p.lam, p.r, p.j, p.h, p.phi, p.v_stick, ts, float(x[0]), float(v[0]),
+                       ts + periods * TWO_PI, **settings)
+    dt = time.perf_counter() - tic
+    inside = (tr.impact_t >= ts) & (tr.impact_t < ts + periods * TWO_PI)
+    ours = tr.impact_t[inside]
+    n = min(len(ours), len(ref.impact_t))
+    err = float(np.max(np.abs(ours[:n] - ref.impact_t[:n]))) if n else float("nan")
+    return {"seconds": dt, "impacts": len(ref.impact_t), "periods": periods,
+            "same_count": len(ours) == len(ref.impact_t), "max_dt": err}
+
+
+def run_cases(quick: bool) -> None:
+    periods = 20_000 if quick else 200_000
+    repeats = 2 if quick else 5
+    base_periods = 10 if quick else 30
+    print(f"== Throughput on one core (NUMBA_NUM_THREADS={os.environ['NUMBA_NUM_THREADS']}), "
+          f"after compilation; best of {repeats}, {periods} periods per run")
+    for name, p in CASES.items():
+        simulate(p, periods=5)  # compile, and load caches, outside the timing
+        print(f"\n-- {name}\n   {p}")
+        rates = {}
+        for rec in (True, False):
+            secs, tr, _ = time_solver(p, periods, repeats, rec)
+            n_imp = len(tr.impact_t)
+            rates[rec] = (n_imp / secs, periods / secs)
+            label = "segments recorded" if rec else "events only (record_segments=False)"
+            print(f"   solver, {label:37s}: {n_imp / secs:12.4g} impacts/s  "
+                  f"{periods / secs:12.4g} periods/s  ({n_imp / periods:.3f} impacts/period, "
+                  f"{secs * 1e3:.1f} ms)")
+        best_imp = max(r[0] for r in rates.values())
+        print(f"   target ≥ {TARGET_IMPACTS_PER_S:.0e} impacts/s: {best_imp:.3g} "
+              f"→ {verdict(best_imp >= TARGET_IMPACTS_PER_S)}")
+        # a recorded run long enough to find a chatter-free window for the baseline
+        _, tr_rec, _ = time_solver(p, 2000, 1, True)
+        for kind, settings in BASELINES.items():
+            try:
+                base = time_baseline(p, tr_rec, base_periods, settings)
+            except ReferenceError_ as err:
+                print(f"   {kind} baseline failed: {err}")
+                continue
+            if base is None:
+                print(f"   {kind} baseline: no chatter-free window found")
+                continue
+            b_imp = base["impacts"] / base["seconds"]
+            b_per = base["periods"] / base["seconds"]
+            print(f"   solve_ivp {kind:5s} ({base['periods']} periods, {base['seconds']:.2f} s): "
+                  f"{b_imp:10.4g} impacts/s  {b_per:10.4g} periods/s  "
+                  f"(same impact count: {base['same_count']}, max |Δt| = {base['max_dt']:.1e})")
+            ratio_imp = rates[True][0] / b_imp if b_imp > 0 else float("inf")
+            ratio_per = rates[True][1] / b_per
+            print(f"   ratio solver/{kind} baseline (segments recorded): {ratio_per:,.0f}× in "
+                  f"periods/s, {ratio_imp:,.0f}× in impacts/s; target ≥ {TARGET_RATIO:,.0f}× "
+                  f"→ {verdict(ratio_per >= TARGET_RATIO)}")
+
+
+START_CODE = """
+import time
+t0 = time.perf_counter()
+from rattle_core import RattleParams, simulate
+t1 = time.perf_counter()
+simulate(RattleParams(lam=3.3), periods=100)
+t2 = time.perf_counter()
+print(f"{t1 - t0:.4f} {t2 - t1:.4f}")
+"""
+
+
+def start_once(cache_dir: str) -> tuple[float, float, float]:
+    env = {**os.environ, "NUMBA_CACHE_DIR": cache_dir, "NUMBA_NUM_THREADS": "1"}
+    tic = time.perf_counter()
+    out = subprocess.run([sys.executable, "-c", START_CODE], env=env, cwd=str(ROOT),
+                         capture_output=True, text=True, check=True)
+    wall = time.perf_counter() - tic
+    imp, first = (float(v) for v in out.stdout.split())
+    return imp, first, wall
+
+
+def run_start(quick: bool) -> None:
+    print("\n== Start-up: a fresh interpreter runs `from rattle_core import ...` and a first "
+          "simulate(Λ = 3.3, 100 periods)")
+    with tempfile.TemporaryDirectory(prefix="numba-cache-") as cache:
+        imp, first, wall = start_once(cache)
+        cold = imp + first
+        print(f"   cold (empty NUMBA_CACHE_DIR): import {imp:.2f} s + first simulate {first:.2f} s "
+              f"= {cold:.2f} s (process wall {wall:.2f} s); target ≤ {TARGET_COLD_S:g} s "
+              f"→ {verdict(cold <= TARGET_COLD_S)}")
+        warm = [start_once(cache) for _ in range(2 if quick else 3)]
+        imp_w = statistics.median(w[0] for w in warm)
+        first_w = statistics.median(w[1] for w in warm)
+        wall_w = statistics.median(w[2] for w in warm)
+        total_w = imp_w + first_w
+        print(f"   warm (cache filled), median of {len(warm)}: import {imp_w:.2f} s + first simulate "
+              f"{first_w:.2f} s = {total_w:.2f} s (process wall {wall_w:.2f} s); "
+              f"target ≤ {TARGET_WARM_S:g} s → {verdict(total_w <= TARGET_WARM_S)}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="fewer periods and repeats")
+    ap.add_argument("--skip-start", action="store_true", help="skip the cold/warm start runs")
+    args = ap.parse_args()
+    print(f"Rattle Explorer core benchmark — Python {platform.python_version()}, "
+          f"numpy {np.__version__}, numba {numba.__version__}, {platform.machine()}, "
+          f"{os.cpu_count()} CPUs visible")
+    run_cases(args.quick)
+    if not args.skip_start:
+        run_start(args.quick)
+
+
+if __name__ == "__main__":
+    main()
