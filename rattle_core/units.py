@@ -528,6 +528,21 @@ def j_from_rpm(phys: PhysicalParams, rpm: Any) -> np.ndarray:
     return phys.backlash * omega**2 / (phys.drive_radius * phys.amplitudes[0])
 
 
+def impulse_scale_from_rpm(phys: PhysicalParams, rpm: Any) -> np.ndarray:
+    """Impulse scale ``m ω H₁`` [N·s] at each engine speed, other inputs of ``phys`` held.
+
+    ``ω = order × 2π × rpm / 60``; ``H₁ = R_d θ₁`` (displacement amplitudes held) or
+    ``H₁ = R_d α₁ / ω²`` (acceleration amplitudes held).
+    """
+    rpm_arr = _check_rpm_array(rpm)
+    omega = phys.order * 2.0 * math.pi * rpm_arr / 60.0
+    if phys.excitation == "displacement":
+        H1 = np.full(rpm_arr.shape, phys.H1)
+    else:
+        H1 = phys.drive_radius * phys.amplitudes[0] / omega**2
+    return phys.mass * omega * H1
+
+
 def rpm_from_lam(phys: PhysicalParams, lam: Any) -> np.ndarray:
     """Engine speed giving each Λ, other inputs of ``phys`` held (displacement amplitudes only).
 
@@ -569,7 +584,7 @@ def example() -> PhysicalParams:
 
 
 __all__ = [
-    "PhysicalParams", "lam_from_rpm", "j_from_rpm", "rpm_from_lam", "rpm_sweep", "omega_from_rpm",
+    "PhysicalParams", "lam_from_rpm", "j_from_rpm", "impulse_scale_from_rpm", "rpm_from_lam", "rpm_sweep", "omega_from_rpm",
     "rpm_from_omega", "backlash_from_um", "backlash_from_angle", "wrap_deg", "example",
     "INERTIA_RANGE", "RADIUS_RANGE", "DRAG_TORQUE_RANGE", "BACKLASH_RANGE", "RPM_RANGE",
     "ORDER_RANGE", "THETA_RANGE", "ALPHA_RANGE", "SOLVE_FOR",

@@ -210,7 +210,7 @@ def test_four_cylinder_order_two_convention():
 @pytest.mark.parametrize("changes, pattern", [
     ({"inertia": -1.0}, r"inertia = -1.0 is outside the allowed range \(0, 10\]"),
     ({"radius": 0.0}, r"radius = 0.0 is outside the allowed range \(0, 2\]"),
-    ({"drag_torque": float("nan")}, r"drag_torque must be finite, got nan"),
+    ({"drag_torque": float("nan")}, r"drag_torque must be finite, got nan; the allowed range is \(0, 10000\]"),
     ({"backlash": 1.0}, r"backlash = 1.0 is outside the allowed range \(0, 0.1\]"),
     ({"rpm": 0.0}, r"rpm = 0.0 is outside the allowed range \(0, 100000\]"),
     ({"order": -2.0}, r"order = -2.0 is outside the allowed range \(0, 100\]"),
