@@ -256,7 +256,7 @@ PRESETS: dict[str, tuple[str, dict[str, Any]]] = {
                _harmonic(lam=1.1, bif="lam", shown=6)),
     "Fig 3C": ("Time history, regime C: one active-flank impact per period",
                _harmonic(lam=1.2, bif="lam", shown=6)),
-    "Fig 3D": ("Time history, regime D: chaotic", _harmonic(lam=1.4, bif="lam", shown=12)),
+    "Fig 3D": ("Time history, regime D: chaotic", _harmonic(lam=1.16, bif="lam", shown=12)),
     "Fig 3E": ("Time history, regime E: one impact on each flank per period",
                _harmonic(lam=3.3, bif="lam", shown=6)),
     "Fig 4": ("Impulse vs Λ, H₂/H₁ = 0.25, φ₂ = 45° (paper)", _two_harmonics(45.0, lam=3.3, bif="lam")),
