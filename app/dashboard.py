@@ -93,6 +93,18 @@ class Dashboard:
         self.layout = self._build_layout()
         if self.doc is not None and self.doc.session_context is not None:
             pn.state.on_session_destroyed(self._on_destroyed)
+            pn.state.onload(self.settle)
+
+    @guarded
+    def settle(self) -> None:
+        """Re-render the text panes once the page is live.
+
+        A pane's first update after its document is attached swaps its stylesheet models,
+        which makes Bokeh re-walk every model of the document (about 50 ms per pane). Doing it
+        while the page loads keeps that cost off the user's first slider move.
+        """
+        for pane in (self.badge, self.metrics, self.timing, self.bif_status, self.harm_list):
+            pane.param.trigger("object")
 
     # ----- construction -------------------------------------------------------------------
 
