@@ -408,7 +408,7 @@ def _draw_fig8(case: PaperCase, path: Path) -> None:
 
 def write_paper_figures(out_dir: Path | str, progress: Progress | None = None,
                         use_assets: bool = True, *, evidence: bool = True,
-                        cache_directory: Path | str | None = None) -> dict[str, Path]:
+                        cache_directory: Path | str | None = None) -> list[Path]:
     """Draw the paper's Figures 2 to 8 as PNG files in ``out_dir``.
 
     Parameters
@@ -427,8 +427,8 @@ def write_paper_figures(out_dir: Path | str, progress: Progress | None = None,
 
     Returns
     -------
-    dict
-        Figure name (and ``phase_convention`` if written) to path.
+    list of Path
+        The files written: ``fig2.png`` … ``fig8.png``, then ``phase_convention.md`` if asked.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -465,7 +465,7 @@ def write_paper_figures(out_dir: Path | str, progress: Progress | None = None,
                 _draw_fig8(case, path)
             paths[key] = path
         report(base + unit)
-    return paths
+    return list(paths.values())
 
 
 # ----- phase convention ---------------------------------------------------------------------

@@ -48,7 +48,7 @@ def main(argv=None) -> int:
         t = time.perf_counter()
         paths = write_paper_figures(ASSETS_DIR, use_assets=True, evidence=False,
                                     cache_directory=tmp)
-        for p in paths.values():
+        for p in paths:
             print(f"{Path(p).relative_to(ROOT)}: {Path(p).stat().st_size / 1e3:.0f} kB")
         print(f"figures: {time.perf_counter() - t:.1f} s")
         if not args.skip_evidence:

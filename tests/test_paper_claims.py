@@ -171,8 +171,8 @@ def test_write_paper_figures(tmp_path):
     calls = []
     paths = write_paper_figures(tmp_path, progress=lambda d, n: calls.append((d, n)),
                                 evidence=False, cache_directory=tmp_path / "cache")
-    assert sorted(paths) == [f"fig{k}" for k in range(2, 9)]
-    for p in paths.values():
+    assert [p.name for p in paths] == [f"fig{k}.png" for k in range(2, 9)]
+    for p in paths:
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and p.stat().st_size > 10_000
     done = [d for d, _ in calls]
     assert all(b >= a for a, b in zip(done, done[1:])) and done[-1] == calls[-1][1]
