@@ -31,7 +31,6 @@ import dataclasses
 import math
 
 import numpy as np
-from scipy.optimize import brentq
 
 from .excitation import TWO_PI, excitation
 from .params import RattleParams
@@ -162,6 +161,7 @@ def classify(tr) -> Classification:
 # ----- analytic overlays --------------------------------------------------------------------
 
 def _max_neg_ydd(params: RattleParams, grid: int = 4096) -> float:
+    from scipy.optimize import brentq  # lazily: scipy.optimize costs ~0.5 s at start-up
     t = np.linspace(0.0, TWO_PI, grid, endpoint=False)
     f = -excitation(t, params.h, params.phi, 2)
     best = -np.inf
@@ -209,6 +209,7 @@ def one_sided_orbits(params: RattleParams, n: int = 1) -> list[OneSidedOrbit]:
     stable when ``|trace| < 1 + det``.  ``fits`` says whether the flight stays inside the backlash
     without touching either wall in between (checked on a fine grid).
     """
+    from scipy.optimize import brentq
     p = params
     lam, r = p.lam, p.r
     target = (1 - r) * math.pi * n / ((1 + r) * lam)

@@ -218,7 +218,19 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
     elif y0 + j - x <= CONTACT_TOL and v - y1 >= 0.0:
         pending = -1
 
+    # events of any kind (impacts, zero-velocity contacts, releases) within one period are
+    # bounded too, so no pathological sequence can loop for ever
+    loop_period = n
+    loops = 0
+    max_loops = 8 * max_imp_per_period + 100_000
     while True:
+        if n != loop_period:
+            loop_period = n
+            loops = 0
+        loops += 1
+        if loops > max_loops:
+            status = STALL
+            break
         rem = (n_end - n) * TWO_PI + (tau0 - tau)
         if rem <= 0.0 and pending == 0:
             break

@@ -17,10 +17,9 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-from typing import Any, Callable, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 import numpy as np
-import pandas as pd
 from numba import njit, prange
 
 from . import solver
@@ -28,6 +27,9 @@ from .classify import classify_arrays
 from .excitation import excitation
 from .params import RattleParams, check_range, parse_name
 from .trajectory import MAX_PERIODS, SOLVER_VERSION, _check_int
+
+if TYPE_CHECKING:  # pandas is imported on first use: it costs a quarter second at start-up
+    import pandas as pd
 
 #: Largest number of values one sweep may hold.
 MAX_VALUES = 1_000_000
@@ -187,6 +189,7 @@ def _run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transie
 
 
 def _summarise(chunk: dict, record: int) -> pd.DataFrame:
+    import pandas as pd
     rows = []
     off = 0
     for i, v in enumerate(chunk["values"]):
@@ -207,6 +210,7 @@ def _summarise(chunk: dict, record: int) -> pd.DataFrame:
 
 
 def _table(chunk: dict) -> pd.DataFrame:
+    import pandas as pd
     return pd.DataFrame({"value": np.repeat(chunk["values"], chunk["counts"]),
                          "impulse": chunk["impulse"], "flank": chunk["flank"],
                          "phase": chunk["phase"]})
@@ -319,6 +323,7 @@ def sweep(base: RattleParams, name: str, values: Sequence[float], transient: int
             chunks.append(_run_chunk(base, name, vals[s:s + chunk_size], transient, record, x0, v0))
             if progress is not None:
                 progress(min(s + chunk_size, nv), nv)
+    import pandas as pd
     if chunks:
         table = pd.concat([_table(c) for c in chunks], ignore_index=True)
         summary = pd.concat([_summarise(c, record) for c in chunks], ignore_index=True)
