@@ -97,9 +97,22 @@ def _flight(lam, j, h, cphi, sphi, m2, m3, m4, tau0, x0, v0, smax, leave):
         if hit != 0:
             return (s + delta, hit, y0 + y1 * delta, y1 + y2 * delta, y2 + y3 * delta,
                     y3 + y4 * delta, y4)
-        da = _safe_step(ga if ga > 0.0 else 0.0, ga1, ga2, m2, m3)
-        dr = _safe_step(gr if gr > 0.0 else 0.0, -ga1, -ga2, m2, m3)
-        d = da if da < dr else dr
+        gap_a = ga if ga > 0.0 else 0.0
+        gap_r = gr if gr > 0.0 else 0.0
+        # the local bound only lengthens a wall's step beyond its global one, so the far wall
+        # needs the local refinement only when its global step is the shorter
+        ga_glob = _root_free(gap_a, ga1, -m2)
+        gr_glob = _root_free(gap_r, -ga1, -m2)
+        if ga_glob <= gr_glob:
+            d = _safe_step(gap_a, ga1, ga2, m2, m3)
+            if d > gr_glob:
+                dr = _safe_step(gap_r, -ga1, -ga2, m2, m3)
+                d = d if d < dr else dr
+        else:
+            d = _safe_step(gap_r, -ga1, -ga2, m2, m3)
+            if d > ga_glob:
+                da = _safe_step(gap_a, ga1, ga2, m2, m3)
+                d = d if d < da else da
         if d < MIN_STEP:
             d = MIN_STEP
         if s + d >= smax:
