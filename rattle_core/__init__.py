@@ -4,6 +4,10 @@ Layers, each importing only those before it:
 ``params`` → ``excitation`` → ``events`` → ``solver`` → ``trajectory`` → ``sections``,
 ``classify`` → ``sweep`` → ``cache``.
 """
+from . import jitcache
+
+jitcache.refresh()
+
 from .classify import Classification, classify, contact_boundary, one_sided_impulse
 from .excitation import excitation
 from .params import RattleParams
