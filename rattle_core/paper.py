@@ -28,8 +28,7 @@ import numpy as np
 import pandas as pd
 
 from .cache import ASSETS_DIR, cached_sweep, load_result, sweep_key
-from .classify import (LYAP_CHAOS, classify, contact_boundary, one_sided_orbits,
-                       period1_limits_harmonic)
+from .classify import LYAP_CHAOS, classify, contact_boundary, period1_limits_harmonic
 from .excitation import TWO_PI, excitation
 from .params import RattleParams, _wrap_deg, paper_to_core_phases
 from .sweep import SweepResult
@@ -363,7 +362,7 @@ def _draw_fig3(case: PaperCase, path: Path) -> None:
 
 def _draw_sections(ax_s, ax_i, params: RattleParams, n_points: int, title: str) -> None:
     x, v, ph, imp = poincare_cloud(params, n_points=n_points)
-    ax_s.scatter(x, v, s=2.0, c="k", marker=".", linewidths=0, rasterized=True)
+    ax_s.scatter(x, v, s=1.5, c="k", marker="o", linewidths=0, rasterized=True)
     ax_s.set_xlabel("x at t = 2πn")
     ax_s.set_ylabel("ẋ at t = 2πn")
     ax_s.set_title(f"{title}: stroboscopic section, {len(x)} points", fontsize=8)
@@ -384,8 +383,8 @@ def _draw_fig7(case: PaperCase, path: Path) -> None:
     ax_s, ax_i = fig.subplots(1, 2)
     _draw_sections(ax_s, ax_i, case.params, case.record, "Λ = 3.3, paper φ2 = 45°")
     c = classify(simulate(case.params, periods=1000, transient=500, lyapunov=True))
-    fig.suptitle(f"{case.key}: {case.caption}\nfrom mid-backlash, 500 + 1000 periods: "
-                 f"{short_label(c)}".replace("\n", "; ", 1).replace("\n", ", "), fontsize=8.5)
+    fig.suptitle(f"{case.key}: {case.caption}\n500 + 1000 periods from mid-backlash: "
+                 + short_label(c).replace("\n", ", "), fontsize=8.5)
     fig.tight_layout()
     fig.savefig(path)
 
