@@ -16,6 +16,7 @@ import argparse
 import importlib
 import inspect
 import json
+import math
 import os
 import sys
 from pathlib import Path
@@ -295,9 +296,9 @@ class _Progress:
                             dynamic_ncols=True)
         if total is not None and self.bar.total != total:
             self.bar.total = total
-        if done is not None:
-            self.bar.n = done
-        self.bar.refresh()
+            self.bar.refresh()
+        if done is not None and done != self.bar.n:
+            self.bar.update(done - self.bar.n)  # update() honours tqdm's redraw interval
 
     def close(self) -> None:
         if self.bar is not None:
@@ -359,18 +360,28 @@ def _meta(params, phys) -> dict:
 
 def _label(params, phys, swept: Sequence[str] = ()) -> str:
     """One line naming the parameters, leaving out the swept ones (their base value is moot)."""
+    skip = set(swept)
+    if skip & {"rpm", "drag_torque", "inertia"}:
+        skip.add("lam")
+    if "backlash_um" in skip or ("rpm" in skip and phys is not None and phys.excitation == "acceleration"):
+        skip.add("j")
     parts = [f"{sym} = {val:{fmt}}" for name, sym, val, fmt in
              (("lam", "Λ", params.lam, ".4g"), ("r", "r", params.r, "g"), ("j", "j", params.j, ".4g"))
-             if name not in swept and not (name == "lam" and "rpm" in swept)]
+             if name not in skip]
     for k in range(2, params.n_harmonics + 1):
-        if f"h{k}" not in swept:
+        if f"h{k}" not in skip:
             parts.append(f"h{k} = {params.amplitudes[k - 1]:g}")
-        if f"phi{k}" not in swept:
+        if f"phi{k}" not in skip:
             parts.append(f"φ{k} = {params.phases_deg[k - 1]:g}°")
     text = ", ".join(parts)
     if phys is not None:
-        speed = "" if "rpm" in swept else f"{phys.rpm:g} rpm, "
-        text += f"  ({speed}{phys.drag_torque:g} N·m, b = {phys.backlash_um:.4g} µm)"
+        held = [text_ for name, text_ in (("rpm", f"{phys.rpm:g} rpm"),
+                                          ("drag_torque", f"C = {phys.drag_torque:g} N·m"),
+                                          ("inertia", f"J = {phys.inertia:g} kg·m²"),
+                                          ("backlash_um", f"b = {phys.backlash_um:.4g} µm"))
+                if name not in skip]
+        if held:
+            text += f"  ({', '.join(held)})"
     return text
 
 
@@ -465,19 +476,22 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _sweep_values(args: argparse.Namespace):
+def _sweep_values(args: argparse.Namespace, suffix: str = "", default_num: int = 200):
     import numpy as np
 
-    if args.values is not None:
-        if args.start is not None or args.stop is not None or args.num is not None:
-            raise CLIError("give --values or --start/--stop/--num, not both")
-        return np.asarray(args.values, dtype=np.float64)
-    if args.start is None or args.stop is None:
-        raise CLIError("sweep: give --start and --stop (and --num), or --values")
-    num = 200 if args.num is None else args.num
+    values, start, stop, num = (getattr(args, f"{k}{suffix}") for k in ("values", "start", "stop", "num"))
+    if values is not None:
+        if start is not None or stop is not None or num is not None:
+            raise CLIError(f"give --values{suffix} or --start{suffix}/--stop{suffix}/--num{suffix}, "
+                           "not both")
+        return np.asarray(values, dtype=np.float64)
+    if start is None or stop is None:
+        raise CLIError(f"sweep: give --start{suffix} and --stop{suffix} (and --num{suffix}), "
+                       f"or --values{suffix}")
+    num = default_num if num is None else num
     if not 1 <= num <= 1_000_000:
-        raise CLIError(f"--num {num} is outside the allowed range [1, 1000000]")
-    return np.linspace(args.start, args.stop, num)
+        raise CLIError(f"--num{suffix} {num} is outside the allowed range [1, 1000000]")
+    return np.linspace(start, stop, num)
 
 
 def _make_executor(args: argparse.Namespace, sweep_fn: Callable) -> tuple[Any, Callable[[], None]]:
@@ -528,6 +542,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     if not args.no_png:
         png = _check_output(args.png, (".png",), "--png") if args.png else out.with_suffix(".png")
     params, phys = build_params(args)
+    if args.param2 is not None:
+        return _cmd_map(args, out, png, params, phys)
+    for flag in ("start2", "stop2", "num2", "values2"):
+        if getattr(args, flag) is not None:
+            raise CLIError(f"--{flag} needs --param2")
     values = _sweep_values(args)
     name = args.param
     rpm = None
@@ -545,8 +564,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         run = getattr(_lazy("rattle_core.cache", "the sweep cache"), "cached_sweep")
     executor, shutdown = _make_executor(args, run)
     progress = _Progress(f"sweep {args.param}", enabled=not args.quiet, total=len(values))
-    kwargs: dict[str, Any] = {"transient": args.transient, "record": args.record, "mode": args.mode,
-                              "x0": args.x0, "v0": args.v0, "progress": progress}
+    kwargs: dict[str, Any] = {"transient": 500 if args.transient is None else args.transient,
+                              "record": 200 if args.record is None else args.record,
+                              "mode": args.mode, "x0": args.x0, "v0": args.v0, "progress": progress}
     if executor is not None:
         kwargs["executor" if "executor" in inspect.signature(run).parameters else "client"] = executor
     try:
@@ -592,7 +612,257 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return 0
 
 
-_AXIS = {"lam": "Λ", "r": "r", "j": "j", "v_stick": "v_stick", "rpm": "engine speed [rpm]"}
+#: Physical map axes: option name → (PhysicalParams field, factor from the axis unit to SI).
+PHYSICAL_AXES = {"rpm": ("rpm", 1.0), "drag_torque": ("drag_torque", 1.0),
+                 "inertia": ("inertia", 1.0), "backlash_um": ("backlash", 1e-6)}
+REGIME_COLOURS = {"A": "#9e9e9e", "B": "#ff9800", "C": "#2e7d32", "D": "#d32f2f",
+                  "E": "#1565c0", "P": "#7b1fa2", "Q": "#795548", "error": "#000000"}
+
+
+def _point_params(params, phys, names: tuple[str, str], point: tuple[float, float]):
+    """The RattleParams at one grid point: physical axes first, then dimensionless ones."""
+    from .params import parse_name
+
+    if phys is not None:
+        changes = {PHYSICAL_AXES[n][0]: v * PHYSICAL_AXES[n][1]
+                   for n, v in zip(names, point) if n in PHYSICAL_AXES}
+        if changes:
+            params = phys.replace(**changes).to_dimensionless()
+    for n, v in zip(names, point):
+        if n not in PHYSICAL_AXES:
+            parse_name(n)
+            params = params.with_value(n, v)
+    return params
+
+
+def _grid_to_model(params, phys, names: tuple[str, str], xv, yv):
+    """How the (x, y) grid maps onto the dimensionless model.
+
+    Returns ``("map", a, a_values, b, b_values)`` when the x axis drives one dimensionless name
+    and the y axis another (a regime map over them), or ``("flat", name, values)`` when both
+    axes drive the same one (``values`` per grid point, rows following y: a 1-D sweep reshaped).
+    Only physical axes can drive the same name, and they act on Λ and j as products of powers
+    (``Λ = m H₁ ω² / F``, ``j = b / H₁``), so the grid is ``v(x, y₀) v(x₀, y) / v(x₀, y₀)``;
+    the far corner is evaluated directly to check it.
+    """
+    import numpy as np
+
+    from .params import iter_names
+
+    for n in names:
+        if n in PHYSICAL_AXES and phys is None:
+            raise CLIError(f"map axis {n!r} is physical: give physical units (--inertia, --radius, "
+                           "--drag-torque, --backlash-um, --rpm, --theta-amp)")
+    along_x = [_point_params(params, phys, names, (x, yv[0])) for x in xv]
+    along_y = [_point_params(params, phys, names, (xv[0], y)) for y in yv]
+    corner = _point_params(params, phys, names, (xv[-1], yv[-1]))
+    kmax = max(p.n_harmonics for p in along_x + along_y + [corner])
+    wide = params.with_value(f"phi{kmax}", params.get(f"phi{kmax}")) if kmax > 1 else params
+    vx, vy = {}, {}
+    for n in iter_names(wide):
+        lx = np.array([p.get(n) for p in along_x])
+        ly = np.array([p.get(n) for p in along_y])
+        if np.ptp(lx) > 0:
+            vx[n] = lx
+        if np.ptp(ly) > 0:
+            vy[n] = ly
+    varying = sorted(set(vx) | set(vy))
+    if not varying:
+        raise CLIError(f"--param {names[0]} and --param2 {names[1]} leave the dimensionless model "
+                       "unchanged over the grid; choose parameters that change it")
+    if len(vx) == 1 and len(vy) == 1:
+        (a, av), = vx.items()
+        (b, bv), = vy.items()
+        if a != b:
+            if corner.get(a) == av[-1] and corner.get(b) == bv[-1]:
+                return ("map", a, av, b, bv)
+        elif a in ("lam", "j"):
+            grid = np.outer(bv, av) / av[0]
+            if math.isclose(grid[-1, -1], corner.get(a), rel_tol=1e-9):
+                return ("flat", a, grid.ravel())
+    raise CLIError(f"--param {names[0]} × --param2 {names[1]} changes {', '.join(varying)} together; "
+                   "a map needs each axis to drive its own dimensionless parameter, or both the same one")
+
+
+def _cmd_map(args: argparse.Namespace, out: Path, png: Path | None, params, phys) -> int:
+    """A 2-D regime/intensity map, or basins of attraction, to a file plus PNG."""
+    import dataclasses
+
+    import numpy as np
+    import pandas as pd
+
+    maps = _lazy("rattle_core.maps", "2-D maps (rattle sweep --param2)")
+    cache = None if args.no_cache else _lazy("rattle_core.cache", "the map cache")
+    names = (args.param, args.param2)
+    if names[0] == names[1]:
+        raise CLIError(f"--param and --param2 must differ, both are {names[0]!r}")
+    if args.mode != "fresh":
+        raise CLIError("2-D maps start every point from the same state; drop --mode continuation")
+    xv = _sweep_values(args, "", default_num=100)
+    yv = _sweep_values(args, "2", default_num=100)
+    transient = 300 if args.transient is None else args.transient
+    record = 100 if args.record is None else args.record
+    basin = set(names) == {"x0", "v0"}
+    if not basin and ({"x0", "v0"} & set(names)):
+        raise CLIError("basins of attraction need --param x0 --param2 v0 together")
+    # Work out (and reject) how the grid maps onto the model before starting any workers.
+    plan = None if basin else _grid_to_model(params, phys, names, xv, yv)
+    run_for_executor = maps.basin_map if basin else maps.regime_map
+    executor, shutdown = _make_executor(args, run_for_executor)
+    progress = _Progress(f"map {names[0]} × {names[1]}", enabled=not args.quiet,
+                         total=xv.size * yv.size, unit="point")
+    common = {"transient": transient, "record": record, "progress": progress}
+    if executor is not None:
+        common["executor"] = executor
+    try:
+        if basin:
+            xs, vs = (xv, yv) if names[0] == "x0" else (yv, xv)
+            if cache is not None:
+                result = cache.cached_map("basin", params, "x0", xs, "v0", vs, **common)
+            else:
+                result = maps.basin_map(params, xs, vs, **common)
+            if names[0] != "x0":
+                result = dataclasses.replace(
+                    result, x_name=names[0], y_name=names[1], x_values=xv, y_values=yv,
+                    fields={k: v.T for k, v in result.fields.items()})
+        else:
+            if args.x0 is not None or args.v0 != 0.0:
+                common.update(x0=args.x0, v0=args.v0)
+            if plan[0] == "map":
+                _, a, av, b, bv = plan
+                if cache is not None:
+                    result = cache.cached_map("regime", params, a, av, b, bv, **common)
+                else:
+                    result = maps.regime_map(params, a, av, b, bv, **common)
+            else:
+                _, n, flat = plan
+                sweep_mod = _lazy("rattle_core.sweep", "sweeping")
+                run = sweep_mod.sweep if cache is None else cache.cached_sweep
+                res = run(params, n, flat, **common)
+                summ = res.summary
+                shape = (yv.size, xv.size)
+                fields = {k: np.full(flat.size, np.nan) for k in
+                          ("period", "lyapunov", "active_per_period", "reverse_per_period",
+                           "stick_fraction", "intensity")}
+                fields["regime"] = np.full(flat.size, -1, dtype=np.int8)
+                m = len(summ)
+                for k in fields:
+                    if k == "regime":
+                        fields[k][:m] = summ["regime"].map(maps.REGIME_CODES).to_numpy(dtype=np.int8)
+                    else:
+                        fields[k][:m] = summ[k].to_numpy(dtype=np.float64)
+                result = maps.MapResult(kind="regime", x_name=names[0], y_name=names[1],
+                                        x_values=xv, y_values=yv, params=params,
+                                        settings=dict(res.settings, swept=n),
+                                        fields={k: v.reshape(shape) for k, v in fields.items()},
+                                        cancelled=res.cancelled)
+            result = dataclasses.replace(result, x_name=names[0], y_name=names[1], x_values=xv,
+                                         y_values=yv)
+    finally:
+        progress.close()
+        shutdown()
+    settings = dict(result.settings)
+    if phys is not None:
+        settings["physical"] = dataclasses.asdict(phys)
+    result = dataclasses.replace(result, settings=settings)
+    if out.suffix.lower() == ".npz":
+        save_map = getattr(_lazy("rattle_core.cache", "saving a map (.npz)"), "save_map")
+        save_map(out, result)
+        _user_permissions(out)
+    else:
+        codes = {v: k for k, v in maps.REGIME_CODES.items()}
+        gx, gy = np.meshgrid(result.x_values, result.y_values)
+        df = pd.DataFrame({names[0]: gx.ravel(), names[1]: gy.ravel()})
+        for k, v in result.fields.items():
+            if k == "regime":
+                df[k] = [codes.get(int(c), "") for c in v.ravel()]
+            else:
+                df[k] = v.ravel()
+        meta = {"kind": result.kind, "x_name": names[0], "y_name": names[1],
+                "params": params.to_dict(), "settings": settings,
+                "attractors": result.attractors}
+        _write_table(df, out, meta)
+    if png is not None:
+        _plot_map(png, result, params, phys, maps.REGIME_CODES)
+    reg = result.fields["regime"]
+    codes = {v: k for k, v in maps.REGIME_CODES.items()}
+    counts = {codes.get(int(c), "?"): int((reg == c).sum()) for c in np.unique(reg) if c >= 0}
+    kind = "basins" if basin else "regime map"
+    _info(args, f"{_label(params, phys, names)}: {kind} over {names[0]} × {names[1]}, "
+                f"{xv.size} × {yv.size} points{' (cancelled)' if result.cancelled else ''}")
+    _info(args, "regimes: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
+    if basin:
+        _info(args, f"{len(result.attractors)} attractors: " + "; ".join(
+            f"{a['regime']} period {a['period']} ({100 * a['share']:.1f}%)" for a in result.attractors[:6]))
+    _info(args, f"wrote {out}")
+    if png is not None:
+        _info(args, f"wrote {png}")
+    return 0
+
+
+def _plot_map(path: Path, result, params, phys, regime_codes: dict) -> None:
+    """PNG of a map: regimes (or attractors) on the left, rattle intensity on the right."""
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        from matplotlib.colors import ListedColormap, LogNorm
+        from matplotlib.patches import Patch
+    except ImportError:
+        raise CLIError("writing the PNG needs matplotlib, which is not installed; "
+                       "pass --no-png") from None
+    import numpy as np
+
+    x, y = result.x_values, result.y_values
+    extent = [x[0], x[-1], y[0], y[-1]] if x.size > 1 and y.size > 1 else None
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 5), dpi=110)
+    try:
+        if result.kind == "basin":
+            att = result.fields["attractor"].astype(float)
+            att[att < 0] = np.nan
+            n = max(1, len(result.attractors))
+            cmap = plt.get_cmap("tab20", max(n, 2))
+            ax1.imshow(att, origin="lower", aspect="auto", extent=extent, cmap=cmap,
+                       vmin=-0.5, vmax=max(n, 2) - 0.5, interpolation="nearest")
+            handles = [Patch(color=cmap(i), label=f"{a['regime']} period {a['period']}")
+                       for i, a in enumerate(result.attractors[:10])]
+            ax1.set_title("attractor reached", fontsize=10)
+        else:
+            letters = list(regime_codes)
+            colours = [REGIME_COLOURS.get(k, "#000000") for k in letters]
+            reg = result.fields["regime"].astype(float)
+            reg[reg < 0] = np.nan
+            ax1.imshow(reg, origin="lower", aspect="auto", extent=extent,
+                       cmap=ListedColormap(colours), vmin=-0.5, vmax=len(letters) - 0.5,
+                       interpolation="nearest")
+            present = {int(c) for c in np.unique(result.fields["regime"]) if c >= 0}
+            handles = [Patch(color=colours[c], label=letters[c]) for c in sorted(present)]
+            ax1.set_title("regime", fontsize=10)
+        ax1.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0),
+                   frameon=False)
+        inten = np.asarray(result.fields["intensity"], dtype=float)
+        positive = inten[np.isfinite(inten) & (inten > 0)]
+        shown = np.where(inten > 0, inten, np.nan)
+        # Four decades are enough; the faint chatter tail would otherwise wash out the scale.
+        norm = (LogNorm(vmin=max(positive.min(), 1e-4 * positive.max()), vmax=positive.max(), clip=True)
+                if positive.size else None)
+        im = ax2.imshow(shown, origin="lower", aspect="auto", extent=extent, cmap="magma",
+                        norm=norm, interpolation="nearest")
+        fig.colorbar(im, ax=ax2, label="rattle intensity Σ Ĩ² per period")
+        ax2.set_title("rattle intensity (blank: no impacts)", fontsize=10)
+        for ax in (ax1, ax2):
+            ax.set_xlabel(_axis_label(result.x_name))
+            ax.set_ylabel(_axis_label(result.y_name))
+        fig.suptitle(_label(params, phys, (result.x_name, result.y_name)), fontsize=9)
+        fig.tight_layout()
+        fig.savefig(path)
+    finally:
+        plt.close(fig)
+
+
+_AXIS = {"lam": "Λ", "r": "r", "j": "j", "v_stick": "v_stick", "rpm": "engine speed [rpm]",
+         "drag_torque": "drag torque [N·m]", "inertia": "inertia [kg·m²]",
+         "backlash_um": "backlash [µm]", "x0": "x0 at t = 0", "v0": "ẋ0 at t = 0"}
 
 
 def _axis_label(name: str) -> str:
@@ -779,13 +1049,29 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--num", type=int, help="number of values, evenly spaced (default 200)")
     s.add_argument("--values", type=_float_list("--values"), metavar="V[,V...]",
                    help="explicit values instead of --start/--stop/--num")
-    s.add_argument("--transient", type=int, default=500, help="unrecorded periods per value (default 500)")
-    s.add_argument("--record", type=int, default=200, help="recorded periods per value (default 200)")
+    s.add_argument("--transient", type=int,
+                   help="unrecorded periods per value (default 500; 300 for 2-D maps)")
+    s.add_argument("--record", type=int,
+                   help="recorded periods per value (default 200; 100 for 2-D maps)")
     s.add_argument("--mode", choices=("fresh", "continuation"), default="fresh",
                    help="fresh: every value from the same start; continuation: each value from the "
                         "previous one's final state, which reveals coexisting attractors (default fresh)")
     s.add_argument("--x0", type=float, default=None, help="start position (default: mid-backlash)")
     s.add_argument("--v0", type=float, default=0.0, help="start velocity (default 0)")
+    m = p.add_argument_group(
+        "2-D maps",
+        "With --param2, map the regime and the rattle intensity over --param × --param2 instead "
+        "of a bifurcation diagram.  Each axis is a dimensionless name (lam, r, j, v_stick, hK, phiK) "
+        "or, in physical units, rpm, drag_torque [N·m], inertia [kg·m²] or backlash_um [µm]; e.g. "
+        "--param rpm --param2 drag_torque.  --param x0 --param2 v0 maps the basins of attraction "
+        "over the initial state at t = 0 instead.  Files: .npz (the cache's map format), or "
+        ".csv/.parquet with one row per grid point; the PNG shows the regimes and the intensity.")
+    m.add_argument("--param2", metavar="NAME", help="second swept parameter (the map's vertical axis)")
+    m.add_argument("--start2", type=float, help="first value of --param2")
+    m.add_argument("--stop2", type=float, help="last value of --param2")
+    m.add_argument("--num2", type=int, help="number of --param2 values (default 100)")
+    m.add_argument("--values2", type=_float_list("--values2"), metavar="V[,V...]",
+                   help="explicit --param2 values")
     s.add_argument("--out", required=True, metavar="FILE", help="output file: .npz, .csv or .parquet")
     s.add_argument("--png", metavar="FILE", help="PNG of the diagram (default: OUT with .png)")
     s.add_argument("--no-png", dest="no_png", action="store_true", help="do not write a PNG")
