@@ -188,6 +188,7 @@ class Dashboard:
         for key, src in self.th_src.items():
             src.name = f"th_{key}"
         self.sec_src["points"].name = "sec_points"
+        self.sec_src["image"].name = "sec_image"
         self.bif["sources"]["image"].name = "bif_image"
         self.sec_fig.on_event(Tap, self._on_section_tap)
         self.sec_fig.on_event(RangesUpdate, self._on_section_range)
@@ -503,7 +504,7 @@ class Dashboard:
         else:
             xr, yr = views.padded_range(x), views.padded_range(y)
         w, h = self._pixels(self.sec_fig)
-        self.sec_src["image"].data = views.rasterize(x, y, xr, yr, w, h)
+        self.sec_src["image"].data = views.rasterize(x, y, xr, yr, w, h, spread=1)
 
     @staticmethod
     def _pixels(fig) -> tuple[int, int]:
@@ -513,7 +514,8 @@ class Dashboard:
             except Exception:
                 return default
             return v if isinstance(v, int) and v > 0 else default
-        return size("inner_width", 600), size("inner_height", 320)
+        # the browser does not report the frame size back; this matches the default layout
+        return size("inner_width", 480), size("inner_height", 300)
 
     @guarded
     def _on_section_range(self, event) -> None:

@@ -111,7 +111,8 @@ def padded_range(v: np.ndarray, pad: float = 0.05) -> tuple[float, float]:
         return -1.0, 1.0
     lo, hi = float(v.min()), float(v.max())
     span = hi - lo
-    if span <= 1e-12 * max(1.0, abs(lo)):
+    # a periodic orbit repeats to ~1e-11: treat spans at that level as one point, not a zoom
+    if span <= 1e-8 * max(1.0, abs(lo), abs(hi)):
         half = max(0.5, 0.05 * abs(lo))
         return lo - half, hi + half
     return lo - pad * span, hi + pad * span
@@ -119,12 +120,14 @@ def padded_range(v: np.ndarray, pad: float = 0.05) -> tuple[float, float]:
 
 def rasterize(x: np.ndarray, y: np.ndarray, x_range: tuple[float, float],
               y_range: tuple[float, float], width: int, height: int,
-              category: np.ndarray | None = None, colors: dict | None = None) -> dict:
+              category: np.ndarray | None = None, colors: dict | None = None,
+              spread: int = 0) -> dict:
     """Datashader image of points over a range, as ``image_rgba`` columns.
 
     With ``category`` (small integers) and ``colors`` ({code: '#rrggbb'}), each category keeps
     its colour; otherwise density is shaded in blues with histogram equalisation, so sparse
-    and dense parts of an attractor both show.
+    and dense parts of an attractor both show. ``spread`` > 0 grows every pixel by that many
+    pixels on each side (datashader's ``spread``), so isolated points of a cloud stay visible.
     """
     import datashader as ds
     import datashader.transfer_functions as tf
@@ -145,7 +148,10 @@ def rasterize(x: np.ndarray, y: np.ndarray, x_range: tuple[float, float],
                        min_alpha=90)
     else:
         agg = cvs.points(df, "x", "y", agg=ds.count())
-        img = tf.shade(agg, cmap=["#9ecae1", "#08306b"], how="eq_hist", min_alpha=90)
+        img = tf.shade(agg, cmap=["#4a90c8", "#08306b"], how="eq_hist", min_alpha=140)
+    if spread:
+        # a periodic orbit piles thousands of points into one pixel: draw each as a small dot
+        img = tf.spread(img, px=spread)
     rgba = np.ascontiguousarray(img.values, dtype=np.uint32)
     return {"image": [rgba], "x": [x0], "y": [y0], "dw": [x1 - x0], "dh": [y1 - y0]}
 

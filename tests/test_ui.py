@@ -137,6 +137,24 @@ def test_click_on_bifurcation_diagram_sets_lambda(page, dashboard_server):
     page.wait_for_function(f"() => Math.abs(({CHECKSUM})() - {before!r}) > 1e-6", timeout=20_000)
 
 
+def test_zooming_the_bifurcation_diagram_refines_the_visible_region(page, dashboard_server):
+    """Wheel-zooming into the Ĩ–Λ diagram triggers a finer background sweep of the visible Λ range."""
+    open_dashboard(page, dashboard_server)
+    page.wait_for_function(BIF_READY, timeout=120_000)
+    status = page.locator(".bif-status p").first
+    assert "refined" not in status.inner_text()
+    target = page.evaluate(BIF_POINT, 0.5)
+    page.mouse.move(target["x"], target["y"])
+    for _ in range(6):
+        page.mouse.wheel(0, -300)
+        page.wait_for_timeout(100)
+    for _ in range(600):
+        if "refined" in status.inner_text():
+            break
+        page.wait_for_timeout(200)
+    assert "refined" in status.inner_text()
+
+
 def test_url_parameters_restore_the_view(page, dashboard_server):
     """A link with parameters opens with exactly those values in the controls."""
     open_dashboard(page, dashboard_server, "?lam=2.2&r=0.5&j=6&h2=0.1&phi2=30&strobe=45")

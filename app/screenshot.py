@@ -1,0 +1,72 @@
+"""Save a screenshot of the served dashboard (the README's picture, ``assets/dashboard.png``).
+
+    .venv/bin/python -m app.screenshot [--out assets/dashboard.png] [--query "?lam=3.3"]
+
+Serves the app on a free local port, opens it in headless Chromium (Debian's ``chromium``;
+Playwright's own browsers cannot be downloaded here), waits until the time history and the
+bifurcation diagram are drawn, and writes the PNG.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import socket
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                 "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+
+READY = """() => {
+  const d = window.Bokeh && Bokeh.documents && Bokeh.documents[0];
+  if (!d) return false;
+  const th = d.get_model_by_name('th_motion'), bif = d.get_model_by_name('bif_image');
+  return th != null && th.get_length() > 0 && bif != null && bif.get_length() > 0;
+}"""
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description="Screenshot the dashboard.")
+    ap.add_argument("--out", default=str(Path(__file__).resolve().parent.parent / "assets" / "dashboard.png"))
+    ap.add_argument("--query", default="", help="URL query, e.g. '?lam=3.3&phi2=180'")
+    ap.add_argument("--chromium", default=shutil.which("chromium") or "/usr/bin/chromium")
+    args = ap.parse_args()
+
+    from playwright.sync_api import sync_playwright
+
+    from app.main import serve
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    server = serve(port=port, threaded=True)
+    try:
+        deadline = time.monotonic() + 120
+        while True:
+            try:
+                urllib.request.urlopen(f"http://localhost:{port}/liveness", timeout=2)
+                break
+            except OSError:
+                if time.monotonic() > deadline:
+                    raise RuntimeError("the dashboard did not start") from None
+                time.sleep(0.2)
+        with sync_playwright() as pw:
+            browser = pw.chromium.launch(executable_path=args.chromium, args=CHROMIUM_ARGS)
+            page = browser.new_page(viewport={"width": 1500, "height": 1020})
+            page.goto(f"http://localhost:{port}/{args.query}")
+            page.wait_for_function(READY, timeout=120_000)
+            page.wait_for_timeout(1500)  # let the last renders and the badge settle
+            os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
+            page.screenshot(path=args.out, full_page=True)
+            browser.close()
+    finally:
+        server.stop()
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
