@@ -558,15 +558,20 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         rpm = values
         name, values = rpm_sweep(phys, rpm)
     sweep_mod = _lazy("rattle_core.sweep", "sweeping (rattle sweep)")
+    transient = 500 if args.transient is None else args.transient
+    record = 200 if args.record is None else args.record
+    # Reject bad requests before any progress bar or worker starts, so the error stays one line.
+    values, transient, record = sweep_mod.validate_sweep_args(name, values, transient, record, args.mode)
+    for v in (float(values.min()), float(values.max())):
+        params.with_value(name, v)
     if args.no_cache:
         run = sweep_mod.sweep
     else:
         run = getattr(_lazy("rattle_core.cache", "the sweep cache"), "cached_sweep")
     executor, shutdown = _make_executor(args, run)
     progress = _Progress(f"sweep {args.param}", enabled=not args.quiet, total=len(values))
-    kwargs: dict[str, Any] = {"transient": 500 if args.transient is None else args.transient,
-                              "record": 200 if args.record is None else args.record,
-                              "mode": args.mode, "x0": args.x0, "v0": args.v0, "progress": progress}
+    kwargs: dict[str, Any] = {"transient": transient, "record": record, "mode": args.mode,
+                              "x0": args.x0, "v0": args.v0, "progress": progress}
     if executor is not None:
         kwargs["executor" if "executor" in inspect.signature(run).parameters else "client"] = executor
     try:
@@ -670,6 +675,11 @@ def _grid_to_model(params, phys, names: tuple[str, str], xv, yv):
     if not varying:
         raise CLIError(f"--param {names[0]} and --param2 {names[1]} leave the dimensionless model "
                        "unchanged over the grid; choose parameters that change it")
+    for axis, found in ((0, vx), (1, vy)):
+        if not found:
+            raise CLIError(f"{'--param' if axis == 0 else '--param2'} {names[axis]} leaves the "
+                           f"dimensionless model unchanged with {names[1 - axis]} also swept; "
+                           "choose parameters that each change it")
     if len(vx) == 1 and len(vy) == 1:
         (a, av), = vx.items()
         (b, bv), = vy.items()
@@ -949,6 +959,8 @@ def cmd_paper(args: argparse.Namespace) -> int:
             written = write(out)
     finally:
         progress.close()
+    if isinstance(written, dict):
+        written = list(written.values())
     if isinstance(written, (list, tuple)):
         for path in written:
             _info(args, f"wrote {path}")

@@ -103,7 +103,7 @@ def backlash_from_um(backlash_um: float) -> float:
     """Backlash along the line of action in metres, from micrometres: ``b = 10⁻⁶ b_µm``."""
     b_um = check_range("backlash_um", backlash_um, BACKLASH_RANGE[0] * 1e6,
                        BACKLASH_RANGE[1] * 1e6, lo_open=True)
-    return b_um * 1e-6
+    return b_um / 1e6  # division is correctly rounded: 160 µm gives exactly 160e-6
 
 
 def backlash_from_angle(angle: float, radius: float, unit: Literal["rad", "deg"] = "rad") -> float:
