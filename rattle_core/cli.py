@@ -469,7 +469,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     _info(args, f"{_label(params, phys)}: {tr.impact_t.size} impacts in {args.periods} periods")
     label = _classify_label(tr)
     if label:
-        _info(args, f"regime {label}")
+        hint = "" if args.transient >= 100 else " (of a window that includes the start-up; --transient skips it)"
+        _info(args, f"regime {label}{hint}")
     for path in (imp_path, hist_path):
         if path is not None:
             _info(args, f"wrote {path}")
