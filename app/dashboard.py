@@ -329,7 +329,9 @@ class Dashboard:
         self._state_to_widgets([e.name for e in events])
         if self.global_alert.visible and not self.global_alert.object.startswith("URL"):
             self.clear_error(None)
-        self.refresh()
+        if self.refresh() is None:
+            # only user-driven redraws: the first one pays for building the session
+            self.timing.object = f"last redraw: {self.last_update_ms:.0f} ms server time"
 
     def _state_to_widgets(self, names=None) -> None:
         self._syncing = True
@@ -453,7 +455,6 @@ class Dashboard:
         self.download.filename = f"impacts_lam{s.lam:g}_r{s.r:g}_j{s.j:g}.csv"
         self._last_good = {k: getattr(s, k) for k in URL_KEYS}
         self.last_update_ms = 1e3 * (time.perf_counter() - t_start)
-        self.timing.object = f"last redraw: {self.last_update_ms:.0f} ms server time"
         return None
 
     def _draw_time_history(self) -> None:

@@ -304,6 +304,20 @@ def test_parameter_change_cancels_the_running_sweep(dash):
     assert len(dash.bif["sources"]["image"].data["image"]) == 1
 
 
+def test_harmonics_can_be_added_and_removed(dash):
+    """Adding order 3 puts it in the solver's harmonics; removing it restores two harmonics."""
+    dash.harm_order.value, dash.harm_amp.value, dash.harm_phase.value = 3, 0.1, 30.0
+    dash._on_harm_add()
+    assert dash.tr.params.amplitudes == (1.0, 0.25, 0.1)
+    assert dash.tr.params.phases_deg[2] == 30.0
+    assert "k = 3" in dash.harm_list.object
+    dash.harm_amp.value = -1.0
+    dash._on_harm_add()
+    assert dash.alerts["harmonics"].visible and dash.tr.params.amplitudes[2] == 0.1
+    dash._on_harm_remove()
+    assert dash.tr.params.amplitudes == (1.0, 0.25) and not dash.alerts["harmonics"].visible
+
+
 def test_two_dashboards_do_not_share_state(dash):
     """Two sessions' dashboards hold separate states, figures and trajectories."""
     from app.dashboard import Dashboard

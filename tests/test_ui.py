@@ -111,6 +111,35 @@ def test_lambda_slider_changes_time_history(page, dashboard_server):
     assert "lam=3.35" in page.url
 
 
+TH_RANGE = """() => { const m = Bokeh.documents[0].get_model_by_name('time_history');
+  return [m.x_range.start, m.x_range.end, m.y_range.start, m.y_range.end]; }"""
+
+
+def test_time_history_zoom_survives_a_parameter_change(page, dashboard_server):
+    """After the user zooms the time history, a Λ change redraws x(t) inside the same zoom."""
+    open_dashboard(page, dashboard_server)
+    page.wait_for_timeout(500)
+    m = page.evaluate("""() => { const v = Bokeh.index.find_one(
+        Bokeh.documents[0].get_model_by_name('time_history'));
+      const r = v.el.getBoundingClientRect(), b = v.frame.bbox;
+      return {x: r.left + b.left + 0.5 * b.width, y: r.top + b.top + 0.5 * b.height}; }""")
+    full = page.evaluate(TH_RANGE)
+    page.mouse.move(m["x"], m["y"])
+    for _ in range(4):
+        page.mouse.wheel(0, -300)
+        page.wait_for_timeout(100)
+    page.wait_for_timeout(500)
+    zoomed = page.evaluate(TH_RANGE)
+    assert zoomed[1] - zoomed[0] < 0.8 * (full[1] - full[0])
+    before = page.evaluate(CHECKSUM)
+    b = box(page, "lam")
+    b.fill("3.1")
+    b.press("Enter")
+    page.wait_for_function(f"() => Math.abs(({CHECKSUM})() - {before!r}) > 1e-6", timeout=20_000)
+    page.wait_for_timeout(500)
+    assert page.evaluate(TH_RANGE) == pytest.approx(zoomed)
+
+
 def test_preset_loads_its_parameters(page, dashboard_server):
     """One click on the Fig 8 preset sets Λ = 3.3, H₂/H₁ = 0.25 and the paper's φ₂ = 90° (core 180°)."""
     open_dashboard(page, dashboard_server, "?lam=1.5&h2=0.1&phi2=10")
@@ -196,6 +225,18 @@ def test_out_of_range_typed_value_is_rejected_beside_the_control(page, dashboard
     wait_box(page, "lam", 3.3)
     assert page.evaluate(CHECKSUM) == pytest.approx(before)
     assert dashboard_server["log"].tracebacks() == []
+
+
+def test_impacts_download_as_csv(page, dashboard_server):
+    """The export button downloads the current impacts as CSV, one row per impact."""
+    open_dashboard(page, dashboard_server, "?lam=3.3&h2=0&periods=50")
+    wait_box(page, "h2", 0.0)
+    with page.expect_download(timeout=30_000) as info:
+        page.locator(".download-csv button, .download-csv a").first.click()
+    text = open(info.value.path(), encoding="utf-8").read().splitlines()
+    assert text[0] == "t,phase,impulse,flank,w"
+    assert len(text) - 1 == 100  # regime E: one impact per flank per period, 50 periods
+    assert info.value.suggested_filename.startswith("impacts_lam3.3")
 
 
 def test_no_request_leaves_localhost(page, dashboard_server):
