@@ -26,7 +26,7 @@ from bokeh.events import RangesUpdate, Reset, Tap
 
 from rattle_core import SolverError, classify, simulate
 from rattle_core.classify import contact_boundary
-from rattle_core.excitation import TWO_PI, excitation
+from rattle_core.excitation import excitation
 
 from . import background, views
 from .state import (FIELDS, PRESETS, URL_KEYS, DashboardState, apply_values, format_harmonics,

@@ -1,6 +1,7 @@
 """Entry point of the dashboard: ``create_app()`` per session, ``serve()`` for ``rattle serve``.
 
-Also a Panel script: ``panel serve app/main.py`` builds one dashboard per session.
+Also a Panel script: ``panel serve app/main.py`` builds one dashboard per session (add
+``--warm`` to compile at start-up rather than in the first session).
 
 Offline by construction: Panel and Bokeh resources are served by this server (resource mode
 ``server``, no CDN), and the Bootstrap template is used because it loads no web fonts (the
@@ -79,8 +80,11 @@ def serve(port: int = 5006, address: str = "localhost", show: bool = False, **kw
                     websocket_origin=origins, liveness=True, **kwargs)
 
 
-if __name__.startswith("bokeh_app") or __name__ == "__main__":
-    if __name__ == "__main__":
-        serve(show=False)
-    else:
-        create_app().servable(title="Rattle Explorer")
+if __name__ == "__main__":
+    serve(show=False)
+elif __name__.startswith("bokeh_app"):
+    # Panel re-runs this script for every session; the imported module (and its warm-up
+    # flag) lives once per process
+    from app.main import create_app as _create_app
+
+    _create_app().servable(title="Rattle Explorer")

@@ -110,11 +110,6 @@ DYNAMIC = ("lam", "r", "j", "h2", "phi2", "harmonics", "periods", "shown", "tran
 URL_KEYS = {name: name for name in DashboardState.param if name != "name"}
 
 
-def defaults() -> dict[str, Any]:
-    """The state a new session opens with."""
-    return {name: DashboardState.param[name].default for name in URL_KEYS}
-
-
 def validate_field(name: str, value: Any) -> Any:
     """Return ``value`` cleaned for state parameter ``name``, or raise ``ValueError``.
 

@@ -82,7 +82,7 @@ def main() -> int:
     print(f"warm-up (imports, numba, datashader, shipped diagrams): {time.perf_counter() - t0:.2f} s")
 
     from app.dashboard import Dashboard
-    from app.state import PRESETS, rattle_params
+    from app.state import rattle_params
 
     cases = [
         ("default: Λ≈3.3, H₂/H₁ = 0.25, φ₂ = −135° (chaotic), 200 periods", None, (3.20, 3.40)),
