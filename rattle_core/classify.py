@@ -8,7 +8,8 @@ Definitions (all over the recorded window of ``P`` forcing periods, after the tr
 * **stick fraction**: time in permanent contact divided by the window length.
 * **Lyapunov exponent λ**: largest exponent per unit dimensionless time, from the tangent
   dynamics with saltation matrices (see ``solver``), measured over the periods free of
-  sticking (a stick phase collapses every perturbation); ``−inf`` if every period sticks.
+  sticking, on excursions of at least 20 periods between stick phases (a stick phase collapses
+  every perturbation); ``−inf`` if no such excursion exists.
 * **chaotic**: ``period == 0`` (non-repeating section) and ``λ > LYAP_CHAOS``.  A chaotic
   response may stick now and then (the paper's "chaotic responses beside stick-and-impact").
 * **rattle intensity**: ``Σ Ĩ² / P``, the impulse energy per forcing period; mean and RMS
@@ -79,7 +80,7 @@ class Classification:
         parts.append(f"{self.active_per_period:.3g} active + {self.reverse_per_period:.3g} reverse "
                      "impacts/period")
         if self.stick_fraction > 0:
-            parts.append(f"sticking {100 * self.stick_fraction:.1f}% of the time")
+            parts.append(f"sticking {100 * self.stick_fraction:.2g}% of the time")
         if not math.isnan(self.lyapunov):
             parts.append(f"λ = {self.lyapunov:.3g}")
         return ", ".join(parts)

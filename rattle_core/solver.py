@@ -46,6 +46,8 @@ RUNAWAY = 3
 STALL = 4
 
 _FLIGHT_MAX_IT = 100_000
+#: Shortest excursion between stick phases that contributes to the Lyapunov exponent.
+MIN_EXCURSION_PERIODS = 20
 
 
 @njit(cache=True, nogil=True)
@@ -209,11 +211,16 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
     imp_count = 0
     dx = 0.7071067811865476
     dv = 0.7071067811865476
-    # Lyapunov bookkeeping: growth is buffered and committed at the first impact of each new
-    # period; a stick phase discards the buffer (its chatter saltations are meaningless once
-    # the perturbation collapses), so the exponent measures the flight dynamics between sticks.
+    # Lyapunov bookkeeping: growth is buffered and moved into the current excursion (the
+    # motion between two stick phases) at the first impact of each new period; a stick phase
+    # discards the buffer (its chatter saltations are meaningless once the perturbation
+    # collapses).  An excursion counts only if it lasts MIN_EXCURSION_PERIODS: after a release
+    # the perturbation is exactly zero, and a short excursion's growth is not an exponent.
     lyap_sum = 0.0
     lyap_time = 0.0
+    exc_sum = 0.0
+    exc_time = 0.0
+    min_exc = MIN_EXCURSION_PERIODS * TWO_PI
     buf = 0.0
     n_commit = n_rec
     t_commit = n_rec * TWO_PI + tau_rec
@@ -315,10 +322,15 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
                 if mode != FLIGHT:
                     buf = 0.0
                     committing = False
+                    if exc_time >= min_exc:
+                        lyap_sum += exc_sum
+                        lyap_time += exc_time
+                    exc_sum = 0.0
+                    exc_time = 0.0
                 elif recording and committing and n > n_commit:
                     t_now = n * TWO_PI + tau
-                    lyap_sum += buf
-                    lyap_time += t_now - t_commit
+                    exc_sum += buf
+                    exc_time += t_now - t_commit
                     buf = 0.0
                     t_commit = t_now
                     n_commit = n
@@ -415,8 +427,11 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
         nrm = np.sqrt(dx * dx + dv * dv)
         t_now = n * TWO_PI + tau
         if nrm > 0.0 and t_now > t_commit:
-            lyap_sum += buf + np.log(nrm)
-            lyap_time += t_now - t_commit
+            exc_sum += buf + np.log(nrm)
+            exc_time += t_now - t_commit
+    if tangent and (exc_time >= min_exc or not stuck_in_window):
+        lyap_sum += exc_sum
+        lyap_time += exc_time
     if lyap_time <= 0.0 and stuck_in_window:
         lyap_sum = -np.inf
         lyap_time = 1.0

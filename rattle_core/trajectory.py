@@ -15,7 +15,7 @@ from . import solver
 from .excitation import TWO_PI, excitation
 from .params import RattleParams, check_range
 
-SOLVER_VERSION = "1.0.0"
+SOLVER_VERSION = "1.1.0"
 #: Largest number of forcing periods (transient + recorded) one call may run.
 MAX_PERIODS = 2_000_000
 
@@ -88,9 +88,10 @@ class Trajectory:
     def lyapunov(self) -> float:
         """Largest Lyapunov exponent per unit dimensionless time (NaN if not computed).
 
-        Measured on the flight dynamics between stick phases: a stick phase collapses every
-        perturbation, so periods that end in sticking are left out.  ``-inf`` when no period of
-        the window is free of sticking.
+        Measured on the excursions between stick phases that last at least
+        ``solver.MIN_EXCURSION_PERIODS`` periods: a stick phase collapses every perturbation,
+        so the periods that end in sticking and the short excursions are left out.  ``-inf``
+        when nothing is left (the gear sticks at least every 20 periods).
         """
         if not self.settings.get("lyapunov") or self.lyapunov_time <= 0:
             return math.nan
