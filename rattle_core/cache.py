@@ -53,6 +53,19 @@ def sweep_key(base: RattleParams, name: str, values: np.ndarray, settings: dict)
                            "settings": keyed, "schema": SCHEMA_VERSION, "solver": SOLVER_VERSION})
 
 
+def _atomic_savez(path: Path, arrays: dict) -> None:
+    """Write a compressed npz to a temporary file beside ``path``, then move it into place."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".npz")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            np.savez_compressed(f, **arrays)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
 def save_result(path: Path | str, result: SweepResult, compact: bool = False,
                 key: str | None = None) -> None:
     """Write ``result`` atomically.  ``compact`` stores impulses and phases as float32."""
@@ -73,15 +86,7 @@ def save_result(path: Path | str, result: SweepResult, compact: bool = False,
     }
     for col, dt in _SUMMARY_TYPES.items():
         arrays[f"s_{col}"] = result.summary[col].to_numpy().astype(dt)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".npz")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            np.savez_compressed(f, **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    _atomic_savez(path, arrays)
 
 
 def load_result(path: Path | str) -> tuple[SweepResult, dict]:
@@ -170,15 +175,7 @@ def save_map(path: Path | str, result, key: str | None = None) -> None:
     arrays = {"meta": np.array(json.dumps(meta)), "x_values": result.x_values,
               "y_values": result.y_values}
     arrays.update({f"f_{k}": v for k, v in result.fields.items()})
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".npz")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            np.savez_compressed(f, **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    _atomic_savez(path, arrays)
 
 
 def load_map(path: Path | str):
