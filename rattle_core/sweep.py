@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import threading
 from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 import numpy as np
@@ -34,6 +35,9 @@ if TYPE_CHECKING:  # pandas is imported on first use: it costs a quarter second 
 #: Largest number of values one sweep may hold.
 MAX_VALUES = 1_000_000
 SCHEMA_VERSION = 1
+# Numba's workqueue threading layer aborts the whole process when two threads launch a parallel
+# kernel at once (Dask worker threads, dashboard jobs); launches are therefore serialised.
+_KERNEL_LOCK = threading.Lock()
 
 
 @njit(parallel=True, cache=True, nogil=True)
@@ -159,10 +163,11 @@ def _run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transie
         stick = np.zeros(m)
         fx = np.zeros(m)
         fv = np.zeros(m)
-        _sweep_kernel(lam[todo], r[todo], j[todo], np.ascontiguousarray(h[todo]),
-                      np.ascontiguousarray(phi[todo]), vs[todo], np.ascontiguousarray(xs[todo]),
-                      vs0[todo], transient, record, max_impacts_per_period, cap,
-                      imp_tau, imp_I, imp_fl, counts, status, str_x, str_v, lyap, stick, fx, fv)
+        with _KERNEL_LOCK:
+            _sweep_kernel(lam[todo], r[todo], j[todo], np.ascontiguousarray(h[todo]),
+                          np.ascontiguousarray(phi[todo]), vs[todo], np.ascontiguousarray(xs[todo]),
+                          vs0[todo], transient, record, max_impacts_per_period, cap,
+                          imp_tau, imp_I, imp_fl, counts, status, str_x, str_v, lyap, stick, fx, fv)
         again = []
         for a, i in enumerate(todo):
             if status[a] == solver.OVERFLOW_IMPACTS:

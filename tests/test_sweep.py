@@ -179,6 +179,34 @@ def test_dask_executor_matches_local():
     assert list(remote.summary["regime"]) == list(local.summary["regime"])
 
 
+_CONCURRENT = """
+import threading, numpy as np
+from rattle_core import RattleParams, sweep
+vals = np.linspace(1.5, 3.5, 16)
+ref = sweep(RattleParams(lam=1.0), "lam", vals, transient=30, record=10)
+out = [None] * 4
+def run(k):
+    out[k] = sweep(RattleParams(lam=1.0), "lam", vals, transient=30, record=10, chunk_size=4)
+threads = [threading.Thread(target=run, args=(k,)) for k in range(4)]
+[t.start() for t in threads]
+[t.join() for t in threads]
+for res in out:
+    np.testing.assert_array_equal(res.table["impulse"], ref.table["impulse"])
+print("same")
+"""
+
+
+def test_sweeps_from_many_threads_share_the_kernel_safely():
+    """Numba's workqueue layer aborts on concurrent parallel launches; sweeps must not."""
+    import subprocess
+    import sys
+    env = {**__import__("os").environ, "NUMBA_THREADING_LAYER": "workqueue"}
+    done = subprocess.run([sys.executable, "-c", _CONCURRENT], env=env, capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip() == "same"
+
+
 @pytest.mark.parametrize("kwargs, word", [
     ({"values": []}, "values"),
     ({"values": [1.0, float("nan")]}, "values"),
