@@ -28,7 +28,7 @@ from rattle_core import SolverError, classify, simulate
 from rattle_core.classify import contact_boundary
 from rattle_core.excitation import excitation
 
-from . import background, views
+from . import background, maps_panel, sound_panel, units_panel, views
 from .state import (FIELDS, PRESETS, URL_KEYS, DashboardState, apply_values, format_harmonics,
                     initial_x, parse_harmonics, rattle_params, validate_field)
 
@@ -82,6 +82,9 @@ class Dashboard:
 
         self._build_widgets()
         self._build_views()
+        # Feature panels: each brings its own widgets and is told after every good redraw.
+        self.panels = [units_panel.UnitsPanel(self), sound_panel.SoundPanel(self),
+                       maps_panel.MapsPanel(self)]
         url_errors: dict[str, str] = {}
         if sync_url and pn.state.location is not None:
             url_errors = self._sync_url(pn.state.location)
@@ -221,14 +224,20 @@ class Dashboard:
             self.download,
             pn.pane.Markdown("Plots: use the save tool (disk icon) in each plot's toolbar.",
                              margin=(0, 10), styles={"font-size": "12px"}),
+            *[obj for panel in self.panels for obj in panel.sidebar],
         ]
         top = pn.Row(self.badge, self.metrics, sizing_mode="stretch_width")
         section = pn.Column(ctl("section"), self.sec_fig, sizing_mode="stretch_width")
         bif = pn.Column(pn.Row(self.widgets["bif"], self.widgets["overlays"], sizing_mode="stretch_width"),
                         self.alerts["bif"], self.progress, self.bif_status, self.bif_fig,
                         sizing_mode="stretch_width")
-        main = [self.global_alert, top, self.th_fig, pn.Row(section, bif, sizing_mode="stretch_width"),
-                self.timing]
+        explorer = pn.Column(top, *[obj for panel in self.panels for obj in panel.explorer],
+                             self.th_fig, pn.Row(section, bif, sizing_mode="stretch_width"),
+                             self.timing, sizing_mode="stretch_width")
+        self.tabs = pn.Tabs(("Explorer", explorer),
+                            *[panel.tab for panel in self.panels if panel.tab is not None],
+                            sizing_mode="stretch_width", css_classes=["main-tabs"])
+        main = [self.global_alert, self.tabs]
         return pn.template.BootstrapTemplate(
             title="Rattle Explorer: gear rattle, exactly", sidebar=sidebar, main=main,
             sidebar_width=360, header_background="#2c3e50")
@@ -454,6 +463,8 @@ class Dashboard:
         self._update_bifurcation()
         self.download.filename = f"impacts_lam{s.lam:g}_r{s.r:g}_j{s.j:g}.csv"
         self._last_good = {k: getattr(s, k) for k in URL_KEYS}
+        for panel in getattr(self, "panels", ()):
+            panel.on_redraw()
         self.last_update_ms = 1e3 * (time.perf_counter() - t_start)
         return None
 
@@ -779,3 +790,5 @@ class Dashboard:
 
     def _on_destroyed(self, session_context) -> None:
         self._cancel_job()
+        for panel in self.panels:
+            panel.on_destroyed()

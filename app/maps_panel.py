@@ -1,0 +1,8 @@
+"""(in development)"""
+from __future__ import annotations
+
+from .panel_base import FeaturePanel
+
+
+class MapsPanel(FeaturePanel):
+    pass
