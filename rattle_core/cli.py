@@ -16,7 +16,6 @@ import argparse
 import importlib
 import inspect
 import json
-import math
 import os
 import sys
 from pathlib import Path
@@ -31,6 +30,7 @@ MAX_HISTORY_ROWS = 5_000_000
 EPILOG = """\
 examples:
   rattle serve --port 5006
+  rattle serve --dask local
   rattle simulate --lam 3.3 --h2 0.25 --phi2 45 --periods 100 --impacts imp.csv --history hist.parquet
   rattle sweep --param lam --start 0.5 --stop 4 --num 400 --out fig2.npz
   rattle sweep --inertia 2e-4 --radius 0.04 --drag-torque 0.02 --backlash-um 160 --rpm 1500 \\
@@ -406,12 +406,24 @@ def cmd_serve(args: argparse.Namespace) -> int:
     serve = getattr(mod, "serve", None)
     if serve is None:
         raise CLIError("the dashboard (rattle serve) is not available: app.main has no serve()")
-    wanted = {"port": args.port, "address": args.address, "show": args.show}
+    wanted: dict[str, Any] = {"port": args.port, "address": args.address, "show": args.show}
+    if args.scheduler is not None and args.dask is not None:
+        raise CLIError("give --dask local or --scheduler ADDRESS, not both")
+    if args.scheduler is not None:
+        if "://" not in args.scheduler or not args.scheduler.split("://", 1)[1]:
+            raise CLIError(f"--scheduler {args.scheduler!r}: give a Dask scheduler address such as "
+                           "tcp://HOST:PORT")
+        wanted["scheduler"] = args.scheduler
+    if args.dask is not None:
+        wanted["dask"] = args.dask
     try:
         accepted = inspect.signature(serve).parameters
         kwargs = {k: v for k, v in wanted.items() if k in accepted}
     except (TypeError, ValueError):
         kwargs = wanted
+    dropped = [f"--{k}" for k in ("scheduler", "dask") if k in wanted and k not in kwargs]
+    if dropped:
+        raise CLIError(f"{', '.join(dropped)}: this dashboard cannot run maps on Dask")
     _info(args, f"serving the dashboard on http://{args.address}:{args.port}/ (Ctrl+C stops)")
     try:
         serve(**kwargs)
@@ -618,164 +630,40 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return 0
 
 
-#: Physical map axes: option name → (PhysicalParams field, factor from the axis unit to SI).
-PHYSICAL_AXES = {"rpm": ("rpm", 1.0), "drag_torque": ("drag_torque", 1.0),
-                 "inertia": ("inertia", 1.0), "backlash_um": ("backlash", 1e-6)}
-REGIME_COLOURS = {"A": "#9e9e9e", "B": "#ff9800", "C": "#2e7d32", "D": "#d32f2f",
-                  "E": "#1565c0", "P": "#7b1fa2", "Q": "#795548", "error": "#000000"}
-
-
-def _point_params(params, phys, names: tuple[str, str], point: tuple[float, float]):
-    """The RattleParams at one grid point: physical axes first, then dimensionless ones."""
-    from .params import parse_name
-
-    if phys is not None:
-        changes = {PHYSICAL_AXES[n][0]: v * PHYSICAL_AXES[n][1]
-                   for n, v in zip(names, point) if n in PHYSICAL_AXES}
-        if changes:
-            params = phys.replace(**changes).to_dimensionless()
-    for n, v in zip(names, point):
-        if n not in PHYSICAL_AXES:
-            parse_name(n)
-            params = params.with_value(n, v)
-    return params
-
-
-def _grid_to_model(params, phys, names: tuple[str, str], xv, yv):
-    """How the (x, y) grid maps onto the dimensionless model.
-
-    Returns ``("map", a, a_values, b, b_values)`` when the x axis drives one dimensionless name
-    and the y axis another (a regime map over them), or ``("flat", name, values)`` when both
-    axes drive the same one (``values`` per grid point, rows following y: a 1-D sweep reshaped).
-    Only physical axes can drive the same name, and they act on Λ and j as products of powers
-    (``Λ = m H₁ ω² / F``, ``j = b / H₁``), so the grid is ``v(x, y₀) v(x₀, y) / v(x₀, y₀)``;
-    the far corner is evaluated directly to check it.
-    """
-    import numpy as np
-
-    from .params import iter_names
-
-    for n in names:
-        if n in PHYSICAL_AXES and phys is None:
-            raise CLIError(f"map axis {n!r} is physical: give physical units (--inertia, --radius, "
-                           "--drag-torque, --backlash-um, --rpm, --theta-amp)")
-    along_x = [_point_params(params, phys, names, (x, yv[0])) for x in xv]
-    along_y = [_point_params(params, phys, names, (xv[0], y)) for y in yv]
-    corner = _point_params(params, phys, names, (xv[-1], yv[-1]))
-    kmax = max(p.n_harmonics for p in along_x + along_y + [corner])
-    wide = params.with_value(f"phi{kmax}", params.get(f"phi{kmax}")) if kmax > 1 else params
-    vx, vy = {}, {}
-    for n in iter_names(wide):
-        lx = np.array([p.get(n) for p in along_x])
-        ly = np.array([p.get(n) for p in along_y])
-        if np.ptp(lx) > 0:
-            vx[n] = lx
-        if np.ptp(ly) > 0:
-            vy[n] = ly
-    varying = sorted(set(vx) | set(vy))
-    if not varying:
-        raise CLIError(f"--param {names[0]} and --param2 {names[1]} leave the dimensionless model "
-                       "unchanged over the grid; choose parameters that change it")
-    for axis, found in ((0, vx), (1, vy)):
-        if not found:
-            raise CLIError(f"{'--param' if axis == 0 else '--param2'} {names[axis]} leaves the "
-                           f"dimensionless model unchanged with {names[1 - axis]} also swept; "
-                           "choose parameters that each change it")
-    if len(vx) == 1 and len(vy) == 1:
-        (a, av), = vx.items()
-        (b, bv), = vy.items()
-        if a != b:
-            if corner.get(a) == av[-1] and corner.get(b) == bv[-1]:
-                return ("map", a, av, b, bv)
-        elif a in ("lam", "j"):
-            grid = np.outer(bv, av) / av[0]
-            if math.isclose(grid[-1, -1], corner.get(a), rel_tol=1e-9):
-                return ("flat", a, grid.ravel())
-    raise CLIError(f"--param {names[0]} × --param2 {names[1]} changes {', '.join(varying)} together; "
-                   "a map needs each axis to drive its own dimensionless parameter, or both the same one")
-
-
 def _cmd_map(args: argparse.Namespace, out: Path, png: Path | None, params, phys) -> int:
     """A 2-D regime/intensity map, or basins of attraction, to a file plus PNG."""
-    import dataclasses
-
     import numpy as np
     import pandas as pd
 
     maps = _lazy("rattle_core.maps", "2-D maps (rattle sweep --param2)")
-    cache = None if args.no_cache else _lazy("rattle_core.cache", "the map cache")
+    if not args.no_cache:
+        _lazy("rattle_core.cache", "the map cache")
     names = (args.param, args.param2)
-    if names[0] == names[1]:
-        raise CLIError(f"--param and --param2 must differ, both are {names[0]!r}")
     if args.mode != "fresh":
         raise CLIError("2-D maps start every point from the same state; drop --mode continuation")
     xv = _sweep_values(args, "", default_num=100)
     yv = _sweep_values(args, "2", default_num=100)
     transient = 300 if args.transient is None else args.transient
     record = 100 if args.record is None else args.record
-    basin = set(names) == {"x0", "v0"}
-    if not basin and ({"x0", "v0"} & set(names)):
-        raise CLIError("basins of attraction need --param x0 --param2 v0 together")
+    labels = ("--param", "--param2")
     # Work out (and reject) how the grid maps onto the model before starting any workers.
-    plan = None if basin else _grid_to_model(params, phys, names, xv, yv)
-    run_for_executor = maps.basin_map if basin else maps.regime_map
-    executor, shutdown = _make_executor(args, run_for_executor)
+    plan = maps.plan_map(params, phys, names[0], xv, names[1], yv, labels)
+    basin = plan[0] == "basin"
+    executor, shutdown = _make_executor(args, maps.basin_map if basin else maps.regime_map)
     progress = _Progress(f"map {names[0]} × {names[1]}", enabled=not args.quiet,
                          total=xv.size * yv.size, unit="point")
-    common = {"transient": transient, "record": record, "progress": progress}
+    common: dict[str, Any] = {"transient": transient, "record": record, "progress": progress}
     if executor is not None:
         common["executor"] = executor
+    if not basin and (args.x0 is not None or args.v0 != 0.0):
+        common.update(x0=args.x0, v0=args.v0)
     try:
-        if basin:
-            xs, vs = (xv, yv) if names[0] == "x0" else (yv, xv)
-            if cache is not None:
-                result = cache.cached_map("basin", params, "x0", xs, "v0", vs, **common)
-            else:
-                result = maps.basin_map(params, xs, vs, **common)
-            if names[0] != "x0":
-                result = dataclasses.replace(
-                    result, x_name=names[0], y_name=names[1], x_values=xv, y_values=yv,
-                    fields={k: v.T for k, v in result.fields.items()})
-        else:
-            if args.x0 is not None or args.v0 != 0.0:
-                common.update(x0=args.x0, v0=args.v0)
-            if plan[0] == "map":
-                _, a, av, b, bv = plan
-                if cache is not None:
-                    result = cache.cached_map("regime", params, a, av, b, bv, **common)
-                else:
-                    result = maps.regime_map(params, a, av, b, bv, **common)
-            else:
-                _, n, flat = plan
-                sweep_mod = _lazy("rattle_core.sweep", "sweeping")
-                run = sweep_mod.sweep if cache is None else cache.cached_sweep
-                res = run(params, n, flat, **common)
-                summ = res.summary
-                shape = (yv.size, xv.size)
-                fields = {k: np.full(flat.size, np.nan) for k in
-                          ("period", "lyapunov", "active_per_period", "reverse_per_period",
-                           "stick_fraction", "intensity")}
-                fields["regime"] = np.full(flat.size, -1, dtype=np.int8)
-                m = len(summ)
-                for k in fields:
-                    if k == "regime":
-                        fields[k][:m] = summ["regime"].map(maps.REGIME_CODES).to_numpy(dtype=np.int8)
-                    else:
-                        fields[k][:m] = summ[k].to_numpy(dtype=np.float64)
-                result = maps.MapResult(kind="regime", x_name=names[0], y_name=names[1],
-                                        x_values=xv, y_values=yv, params=params,
-                                        settings=dict(res.settings, swept=n),
-                                        fields={k: v.reshape(shape) for k, v in fields.items()},
-                                        cancelled=res.cancelled)
-            result = dataclasses.replace(result, x_name=names[0], y_name=names[1], x_values=xv,
-                                         y_values=yv)
+        result = maps.run_map(params, phys, names[0], xv, names[1], yv,
+                              use_cache=not args.no_cache, labels=labels, **common)
     finally:
         progress.close()
         shutdown()
-    settings = dict(result.settings)
-    if phys is not None:
-        settings["physical"] = dataclasses.asdict(phys)
-    result = dataclasses.replace(result, settings=settings)
+    settings = result.settings
     if out.suffix.lower() == ".npz":
         save_map = getattr(_lazy("rattle_core.cache", "saving a map (.npz)"), "save_map")
         save_map(out, result)
@@ -840,6 +728,7 @@ def _plot_map(path: Path, result, params, phys, regime_codes: dict) -> None:
             ax1.set_title("attractor reached", fontsize=10)
         else:
             letters = list(regime_codes)
+            from .maps import REGIME_COLOURS
             colours = [REGIME_COLOURS.get(k, "#000000") for k in letters]
             reg = result.fields["regime"].astype(float)
             reg[reg < 0] = np.nan
@@ -1026,6 +915,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--address", default="localhost",
                    help="address to listen on (default localhost; 0.0.0.0 for every interface)")
     p.add_argument("--show", action="store_true", help="open a browser tab")
+    d = p.add_argument_group("2-D maps on Dask (default: the server's own cores)",
+                             "The default of the Maps tab's 'Dask scheduler' field, for every "
+                             "session; each session may still change it.")
+    d.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                   help="run the dashboard's maps on this Dask scheduler")
+    d.add_argument("--dask", choices=("local",),
+                   help="'local': run them on a 2-worker Dask LocalCluster started by the server")
     p.set_defaults(func=cmd_serve)
 
     p = sub.add_parser("simulate", parents=[quiet, _run_parent(0)], formatter_class=fmt,

@@ -8,10 +8,14 @@
   their regime and a fingerprint of their stroboscopic section (the periodic orbit's smallest
   section point, rounded), so two coexisting period-1 orbits get two colours.
 
+* :func:`run_map` is the entry point of the CLI and the dashboard: its axes may also be
+  physical (``rpm``, ``drag_torque``, ``inertia``, ``backlash_um``, through
+  :mod:`rattle_core.units`) or the start state (``x0`` × ``v0``: basins).  :func:`plan_map`
+  works out, and checks, which dimensionless parameters the two axes drive before anything runs.
+
 The grid is flattened into per-point parameter arrays and run in chunks through the sweep
 kernel: in parallel on local cores, or on a Dask cluster when ``executor`` is a
-``dask.distributed.Client`` (results are identical, point for point).  Physical sweeps
-(engine speed, drag torque) map onto these names through :mod:`rattle_core.units`.
+``dask.distributed.Client`` (results are identical, point for point).
 """
 from __future__ import annotations
 
@@ -24,12 +28,18 @@ import pandas as pd
 
 from .classify import MAX_PERIOD, detect_period
 from .excitation import excitation
-from .params import RattleParams, check_range, parse_name
+from .params import RattleParams, check_range, iter_names, parse_name
 from .sweep import SCHEMA_VERSION, _run_chunk, _summarise
 from .trajectory import MAX_PERIODS, SOLVER_VERSION, _check_int
 
 #: Regime letters and their integer codes in map arrays.
 REGIME_CODES = {"A": 0, "B": 1, "C": 2, "D": 3, "E": 4, "P": 5, "Q": 6, "error": 7}
+#: Colour of each regime in map pictures (the CLI's PNG, the dashboard's map).
+REGIME_COLOURS = {"A": "#9e9e9e", "B": "#ff9800", "C": "#2e7d32", "D": "#d32f2f",
+                  "E": "#1565c0", "P": "#7b1fa2", "Q": "#795548", "error": "#000000"}
+#: Physical map axes: axis name → (PhysicalParams field, factor from the axis unit to SI).
+PHYSICAL_AXES = {"rpm": ("rpm", 1.0), "drag_torque": ("drag_torque", 1.0),
+                 "inertia": ("inertia", 1.0), "backlash_um": ("backlash", 1e-6)}
 MAX_GRID = 4_000_000
 
 
@@ -52,6 +62,8 @@ class MapResult:
     fields: dict
     attractors: list = dataclasses.field(default_factory=list)
     cancelled: bool = False
+    #: Set by :func:`run_map`: the map was read from the disk cache, not computed.
+    from_cache: bool = False
 
 
 def _grid_args(name: str, values, label: str) -> np.ndarray:
@@ -246,3 +258,213 @@ def basin_map(params: RattleParams, x0_values, v0_values, transient: int = 300,
     return MapResult(kind="basin", x_name="x0", y_name="v0", x_values=xv, y_values=vv,
                      params=params, settings=settings, fields=fields, attractors=attractors,
                      cancelled=cancelled)
+
+
+# ----- maps over any two axes: dimensionless, physical or the start state -----------------
+
+#: Names of the start-state axes of a basin map.
+BASIN_AXES = ("x0", "v0")
+
+
+def point_params(params: RattleParams, phys: Any, names: tuple[str, ...],
+                 point: tuple[float, ...]) -> RattleParams:
+    """The dimensionless parameters at one grid point: physical axes first, then the others.
+
+    ``phys`` (a :class:`~rattle_core.units.PhysicalParams`, or None) holds the physical
+    values not swept; a physical axis replaces its field (``rpm``, ``drag_torque``, ...) and
+    the point's ``RattleParams`` follows from :meth:`PhysicalParams.to_dimensionless`.
+    """
+    if phys is not None:
+        changes = {PHYSICAL_AXES[n][0]: v * PHYSICAL_AXES[n][1]
+                   for n, v in zip(names, point) if n in PHYSICAL_AXES}
+        if changes:
+            params = phys.replace(**changes).to_dimensionless()
+    for n, v in zip(names, point):
+        if n not in PHYSICAL_AXES:
+            parse_name(n)
+            params = params.with_value(n, v)
+    return params
+
+
+def plan_map(params: RattleParams, phys: Any, x_name: str, x_values, y_name: str, y_values,
+             labels: tuple[str, str] = ("x axis", "y axis")) -> tuple:
+    """How a grid over two axes maps onto the dimensionless model; checks it before any run.
+
+    Returns ``("basin",)`` for ``x0`` × ``v0``; ``("map", a, a_values, b, b_values)`` when
+    the x axis drives one dimensionless parameter ``a`` and the y axis another ``b`` (a
+    regime map over them); or ``("flat", name, values)`` when both axes drive the same one
+    (``values`` per grid point, rows following y: a 1-D sweep reshaped).  Only physical axes
+    can drive the same parameter, and they act on Λ and j as products of powers
+    (``Λ = m H₁ ω² / F``, ``j = b / H₁``), so that grid is ``v(x, y₀) v(x₀, y) / v(x₀, y₀)``;
+    the far corner is evaluated directly to check it.
+
+    Raises ``ValueError`` naming the axis (``labels`` say how: ``"x axis"``, ``"--param"``).
+    """
+    names = (x_name, y_name)
+    if not isinstance(params, RattleParams):
+        raise ValueError(f"params must be a RattleParams, got {type(params).__name__}")
+    if x_name == y_name:
+        raise ValueError(f"{labels[0]} and {labels[1]} must differ, both are {x_name!r}")
+    xv = _grid_args(x_name, x_values, f"{labels[0]} {x_name} values")
+    yv = _grid_args(y_name, y_values, f"{labels[1]} {y_name} values")
+    if set(names) & set(BASIN_AXES):
+        if set(names) != set(BASIN_AXES):
+            raise ValueError(f"basins of attraction need {labels[0]} x0 {labels[1]} v0 together; "
+                             f"got {x_name!r} and {y_name!r}")
+        return ("basin",)
+    for axis, (n, vals) in enumerate(zip(names, (xv, yv))):
+        if n in PHYSICAL_AXES:
+            if phys is None:
+                raise ValueError(f"{labels[axis]} {n!r} is physical: give physical units (inertia, "
+                                 "radius, drag torque, backlash, rpm, excitation amplitudes)")
+        else:
+            try:
+                parse_name(n)
+            except ValueError as exc:
+                raise ValueError(f"{labels[axis]}: {exc}") from None
+        # every check is a range check, so the extreme values settle the whole axis
+        for v in (float(vals.min()), float(vals.max())):
+            try:
+                point_params(params, phys, (n,), (v,))
+            except ValueError as exc:
+                raise ValueError(f"{labels[axis]} {n}: {exc}") from None
+    along_x = [point_params(params, phys, names, (x, yv[0])) for x in xv]
+    along_y = [point_params(params, phys, names, (xv[0], y)) for y in yv]
+    corner = point_params(params, phys, names, (xv[-1], yv[-1]))
+    kmax = max(p.n_harmonics for p in along_x + along_y + [corner])
+    wide = params.with_value(f"phi{kmax}", params.get(f"phi{kmax}")) if kmax > 1 else params
+    vx, vy = {}, {}
+
+    def varies(v: np.ndarray) -> bool:
+        # physical units reach Λ and j through products that cancel only up to rounding
+        return bool(np.ptp(v) > 1e-12 * np.max(np.abs(v)))
+    for n in iter_names(wide):
+        lx = np.array([p.get(n) for p in along_x])
+        ly = np.array([p.get(n) for p in along_y])
+        if varies(lx):
+            vx[n] = lx
+        if varies(ly):
+            vy[n] = ly
+    varying = sorted(set(vx) | set(vy))
+    if not varying:
+        raise ValueError(f"{labels[0]} {x_name} and {labels[1]} {y_name} leave the dimensionless "
+                         "model unchanged over the grid; choose parameters that change it")
+    for axis, found in ((0, vx), (1, vy)):
+        if not found:
+            raise ValueError(f"{labels[axis]} {names[axis]} leaves the dimensionless model "
+                             f"unchanged with {names[1 - axis]} also swept; choose parameters "
+                             "that each change it")
+    if len(vx) == 1 and len(vy) == 1:
+        (a, av), = vx.items()
+        (b, bv), = vy.items()
+        if a != b:
+            if (math.isclose(corner.get(a), av[-1], rel_tol=1e-12)
+                    and math.isclose(corner.get(b), bv[-1], rel_tol=1e-12)):
+                return ("map", a, av, b, bv)
+        elif a in ("lam", "j"):
+            grid = np.outer(bv, av) / av[0]
+            if math.isclose(grid[-1, -1], corner.get(a), rel_tol=1e-9):
+                return ("flat", a, grid.ravel())
+    raise ValueError(f"{labels[0]} {x_name} × {labels[1]} {y_name} changes {', '.join(varying)} "
+                     "together; a map needs each axis to drive its own dimensionless parameter, "
+                     "or both the same one")
+
+
+def _flat_map(params: RattleParams, name: str, flat: np.ndarray, shape: tuple[int, int],
+              use_cache: bool, common: dict) -> MapResult:
+    """A map whose two axes drive one parameter: a 1-D sweep over every grid point, reshaped."""
+    if use_cache:
+        from .cache import cached_sweep as run
+    else:
+        from .sweep import sweep as run
+    res = run(params, name, flat, **common)
+    summ = res.summary
+    fields = {k: np.full(flat.size, np.nan) for k in
+              ("period", "lyapunov", "active_per_period", "reverse_per_period", "stick_fraction",
+               "intensity")}
+    fields["regime"] = np.full(flat.size, -1, dtype=np.int8)
+    m = len(summ)
+    for k in fields:
+        if k == "regime":
+            fields[k][:m] = summ["regime"].map(REGIME_CODES).to_numpy(dtype=np.int8)
+        else:
+            fields[k][:m] = summ[k].to_numpy(dtype=np.float64)
+    return MapResult(kind="regime", x_name=name, y_name=name, x_values=flat, y_values=flat,
+                     params=params, settings=dict(res.settings),
+                     fields={k: v.reshape(shape) for k, v in fields.items()},
+                     cancelled=res.cancelled)
+
+
+def run_map(params: RattleParams, phys: Any, x_name: str, x_values, y_name: str, y_values, *,
+            use_cache: bool = True, labels: tuple[str, str] = ("x axis", "y axis"),
+            **common: Any) -> MapResult:
+    """A regime/intensity map or basins of attraction over any two axes, labelled as asked.
+
+    Parameters
+    ----------
+    params : RattleParams
+        Parameters held fixed (for physical axes, those of ``phys`` at its own values).
+    phys : PhysicalParams or None
+        The same model in physical units; needed for physical axes.
+    x_name, y_name : str
+        Dimensionless names (``lam``, ``r``, ``j``, ``v_stick``, ``hK``, ``phiK``), physical
+        ones (:data:`PHYSICAL_AXES`: ``rpm``, ``drag_torque`` [N·m], ``inertia`` [kg·m²],
+        ``backlash_um`` [µm]), or ``x0`` and ``v0`` for basins of attraction.
+    x_values, y_values : sequence of float
+    use_cache : bool
+        Serve a map that ran before from the disk cache (:mod:`rattle_core.cache`), and store
+        this one; ``result.from_cache`` tells which happened.
+    labels : (str, str)
+        How error messages name the two axes.
+    **common
+        ``transient``, ``record``, ``x0``, ``v0`` (regime maps), ``progress``, ``cancel``,
+        ``executor``, ``chunk_size``, as for :func:`regime_map` and :func:`basin_map`.
+
+    Returns
+    -------
+    MapResult
+        ``x_name``, ``y_name``, ``x_values``, ``y_values`` are the caller's; ``settings``
+        adds ``model_axes`` (the dimensionless parameters the axes drive) and, in physical
+        units, ``physical``.
+    """
+    plan = plan_map(params, phys, x_name, x_values, y_name, y_values, labels)
+    xv = _grid_args(x_name, x_values, "x_values")
+    yv = _grid_args(y_name, y_values, "y_values")
+    progress = common.get("progress")
+    reported = []
+
+    def track(done: int, total: int) -> None:
+        reported.append(done)
+        if progress is not None:
+            progress(done, total)
+    common = dict(common, progress=track)
+    if plan[0] == "basin":
+        if "x0" in common or "v0" in common:
+            raise ValueError("x0 and v0 are the axes of a basin map; do not give them as settings")
+        xs, vs = (xv, yv) if x_name == "x0" else (yv, xv)
+        if use_cache:
+            from .cache import cached_map
+            result = cached_map("basin", params, "x0", xs, "v0", vs, **common)
+        else:
+            result = basin_map(params, xs, vs, **common)
+        if x_name != "x0":
+            result = dataclasses.replace(result, fields={k: v.T for k, v in result.fields.items()})
+        axes: Any = list(BASIN_AXES)
+    elif plan[0] == "map":
+        _, a, av, b, bv = plan
+        if use_cache:
+            from .cache import cached_map
+            result = cached_map("regime", params, a, av, b, bv, **common)
+        else:
+            result = regime_map(params, a, av, b, bv, **common)
+        axes = [a, b]
+    else:
+        _, name, flat = plan
+        result = _flat_map(params, name, flat, (yv.size, xv.size), use_cache, common)
+        axes = name
+    settings = dict(result.settings, model_axes=axes)
+    if phys is not None:
+        settings["physical"] = dataclasses.asdict(phys)
+    return dataclasses.replace(result, x_name=x_name, y_name=y_name, x_values=xv, y_values=yv,
+                               settings=settings,
+                               from_cache=use_cache and not reported and not result.cancelled)

@@ -389,3 +389,26 @@ def test_units_prints_both_sets_side_by_side(capsys):
     code, out, err = run(["units", *PHYS], capsys)
     assert code == 0, err
     assert "0.49348" in out and "j = 8" in out and "h_2 = 0.25" in out and "1500 rpm" in out
+
+
+def test_serve_passes_the_maps_dask_default(monkeypatch, capsys):
+    """serve --scheduler ADDR and --dask local reach app.main.serve; together they are refused."""
+    import app.main
+
+    seen = []
+    monkeypatch.setattr(app.main, "serve", lambda port, address, show=False, scheduler=None,
+                        dask=None: seen.append({"scheduler": scheduler, "dask": dask}))
+    code, _, err = run(["serve", "--scheduler", "tcp://10.0.0.5:8786"], capsys)
+    assert code == 0, err
+    code, _, err = run(["serve", "--dask", "local"], capsys)
+    assert code == 0, err
+    assert seen == [{"scheduler": "tcp://10.0.0.5:8786", "dask": None},
+                    {"scheduler": None, "dask": "local"}]
+    for argv, message in ((["--dask", "local", "--scheduler", "tcp://h:1"], "not both"),
+                          (["--scheduler", "10.0.0.5"], "give a Dask scheduler address such as tcp://"),
+                          (["--dask", "remote"], "invalid choice: 'remote'")):
+        code, _, err = run(["serve", *argv], capsys)
+        assert code == 2 and len(err.splitlines()) == 1 and message in err, err
+    assert len(seen) == 2
+    code, out, _ = run(["serve", "--help"], capsys)
+    assert code == 0 and "--scheduler" in out and "--dask" in out and "Dask" in out

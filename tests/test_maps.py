@@ -112,3 +112,100 @@ def test_maps_are_cached(tmp_path, monkeypatch):
     with pytest.raises(AssertionError, match="recomputed"):
         cache.cached_map("regime", BASE, "lam", [1.0, 2.5], "phi2", [0.0, 90.0],
                          directory=tmp_path, **kw)
+
+
+# ----- run_map: any two axes, physical ones included ----------------------------------------
+
+def _phys(excitation="displacement"):
+    from rattle_core.units import PhysicalParams
+    amps = (5e-4, 1.25e-4) if excitation == "displacement" else (400.0, 100.0)
+    return PhysicalParams(inertia=2e-4, radius=0.04, drag_torque=0.02, backlash=160e-6,
+                          rpm=1500.0, amplitudes=amps, phases_deg=(0.0, 45.0),
+                          excitation=excitation)
+
+
+def test_run_map_rpm_by_drag_torque_equals_the_regime_map_it_drives():
+    """With acceleration amplitudes rpm drives j and drag torque drives Λ: the same map."""
+    from rattle_core.maps import run_map
+    phys = _phys("acceleration")
+    rpm = np.array([1200.0, 2000.0, 3000.0])
+    torque = np.array([0.01, 0.02])
+    m = run_map(phys.to_dimensionless(), phys, "rpm", rpm, "drag_torque", torque,
+                use_cache=False, transient=60, record=30)
+    assert (m.x_name, m.y_name) == ("rpm", "drag_torque")
+    np.testing.assert_array_equal(m.x_values, rpm)
+    np.testing.assert_array_equal(m.y_values, torque)
+    assert m.settings["model_axes"] == ["j", "lam"]
+    js = [phys.replace(rpm=v).to_dimensionless().j for v in rpm]
+    lams = [phys.replace(drag_torque=c).to_dimensionless().lam for c in torque]
+    assert np.ptp(js) > 0 and np.ptp(lams) > 0
+    ref = regime_map(phys.to_dimensionless(), "j", js, "lam", lams, transient=60, record=30)
+    for k in ref.fields:
+        np.testing.assert_array_equal(m.fields[k], ref.fields[k])
+
+
+def test_run_map_two_axes_driving_lambda_run_each_point_at_its_own_lambda():
+    """With displacement amplitudes rpm and drag torque both drive Λ: each cell is its own run."""
+    from rattle_core.maps import point_params, run_map
+    phys = _phys()
+    rpm = np.array([1500.0, 3000.0])
+    torque = np.array([0.01, 0.03])
+    m = run_map(phys.to_dimensionless(), phys, "rpm", rpm, "drag_torque", torque,
+                use_cache=False, transient=60, record=30)
+    assert m.settings["model_axes"] == "lam" and m.fields["regime"].shape == (2, 2)
+    codes = {v: k for k, v in REGIME_CODES.items()}
+    for iy, c in enumerate(torque):
+        for ix, n in enumerate(rpm):
+            p = point_params(phys.to_dimensionless(), phys, ("rpm", "drag_torque"), (n, c))
+            assert p.lam == pytest.approx(phys.replace(rpm=n, drag_torque=c).lam, rel=1e-12)
+            got = classify(simulate(p, periods=30, transient=60, lyapunov=True))
+            assert codes[int(m.fields["regime"][iy, ix])] == got.regime
+            assert m.fields["intensity"][iy, ix] == pytest.approx(got.intensity, rel=1e-9, abs=1e-12)
+
+
+def test_run_map_basins_in_either_axis_order():
+    """(v0, x0) gives the transposed basin map of (x0, v0), labelled with the caller's names."""
+    from rattle_core.maps import run_map
+    p = RattleParams(lam=1.16)
+    xs, vs = np.linspace(2.0, 8.0, 4), np.linspace(-2.0, 2.0, 3)
+    ref = basin_map(p, xs, vs, transient=100)
+    m = run_map(p, None, "v0", vs, "x0", xs, use_cache=False, transient=100)
+    assert (m.kind, m.x_name, m.y_name) == ("basin", "v0", "x0")
+    np.testing.assert_array_equal(m.fields["attractor"], ref.fields["attractor"].T)
+
+
+def test_run_map_is_served_from_the_cache(tmp_path, monkeypatch):
+    """A repeated run_map comes from the disk cache, says so, and holds the same values."""
+    from rattle_core.maps import run_map
+    monkeypatch.setenv("RATTLE_CACHE_DIR", str(tmp_path))
+    kw = dict(transient=30, record=20)
+    first = run_map(BASE, None, "lam", [1.0, 2.0], "phi2", [0.0, 90.0], **kw)
+    again = run_map(BASE, None, "lam", [1.0, 2.0], "phi2", [0.0, 90.0], **kw)
+    assert not first.from_cache and again.from_cache
+    for k in first.fields:
+        np.testing.assert_array_equal(first.fields[k], again.fields[k])
+
+
+@pytest.mark.parametrize("args, message", [
+    (("rpm", [1000, 2000], "lam", [1, 2]), "x axis rpm leaves the dimensionless model unchanged"),
+    (("lam", [-1, 2], "phi2", [0, 1]), "x axis lam: lam = -1.0 is outside the allowed range"),
+    (("lam", [1, 2], "r", [0.5, 1.5]), "y axis r: r = 1.5 is outside the allowed range [0, 1]"),
+    (("rpm", [1000, 2e6], "drag_torque", [0.01]), "x axis rpm: rpm = 2000000.0 is outside"),
+    (("lam", [1, 2], "lam", [1, 2]), "x axis and y axis must differ"),
+    (("x0", [1, 2], "lam", [1, 2]), "basins of attraction need x axis x0 y axis v0 together"),
+    (("lam", [1, np.nan], "phi2", [0]), "x axis lam values must all be finite"),
+    (("zeta", [1, 2], "phi2", [0]), "x axis: unknown parameter name 'zeta'"),
+])
+def test_run_map_rejects_bad_axes_naming_them(args, message):
+    """Mismatched, unknown or out-of-range axes raise ValueError naming the axis."""
+    from rattle_core.maps import run_map
+    with pytest.raises(ValueError, match=None) as err:
+        run_map(_phys().to_dimensionless(), _phys(), *args, use_cache=False, transient=5, record=5)
+    assert message in str(err.value)
+
+
+def test_run_map_physical_axis_needs_physical_units():
+    """A physical axis without PhysicalParams is refused, naming the axis."""
+    from rattle_core.maps import run_map
+    with pytest.raises(ValueError, match="y axis 'drag_torque' is physical"):
+        run_map(BASE, None, "lam", [1, 2], "drag_torque", [0.01, 0.02], use_cache=False)
