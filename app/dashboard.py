@@ -24,7 +24,7 @@ import numpy as np
 import panel as pn
 from bokeh.events import RangesUpdate, Reset, Tap
 
-from rattle_core import SolverError, classify, simulate
+from rattle_core import SolverError, classify, simulate, units
 from rattle_core.classify import contact_boundary
 from rattle_core.excitation import excitation
 
@@ -39,11 +39,13 @@ SLIDERS = ("lam", "r", "j", "h2", "phi2")
 #: Controls inside the collapsible "Advanced" card, which opens to show their messages.
 ADVANCED = ("periods", "shown", "transient", "v_stick", "x0", "v0", "t0", "harmonics", "strobe")
 #: Points per diagram computed in the background (whole range, then each zoomed region).
-BIF_VALUES = {"lam": 400, "phi2": 361}
+BIF_VALUES = {"lam": 400, "phi2": 361, "rpm": 400}
 ZOOM_VALUES = 300
-BIF_RANGES = {"lam": (0.5, 4.0), "phi2": (-180.0, 180.0)}
+BIF_RANGES = {"lam": (0.5, 4.0), "phi2": (-180.0, 180.0), "rpm": (500.0, 6000.0)}
 BIF_PERIODS = {"transient": 300, "record": 100}
-BIF_AXIS = {"lam": "Λ", "phi2": "φ₂ (degrees, core convention)"}
+BIF_AXIS = {"lam": "Λ", "phi2": "φ₂ (degrees, core convention)", "rpm": "engine speed (rpm)"}
+#: Diagram choices; "Ĩ vs rpm" joins them while the physical-units mode is on.
+BIF_OPTIONS = {"Ĩ vs Λ": "lam", "Ĩ vs φ₂": "phi2"}
 
 
 def guarded(method: Callable) -> Callable:
@@ -79,6 +81,8 @@ class Dashboard:
         self._fine: list[tuple[float, float]] = []
         self._overlay_key: tuple | None = None
         self.last_update_ms = math.nan
+        # the physical-units panel sets this to its PhysicalParams while its mode is on
+        self.physical: units.PhysicalParams | None = None
 
         self._build_widgets()
         self._build_views()
@@ -146,13 +150,16 @@ class Dashboard:
                      "impact map": "impact"}, value=s.section, css_classes=["ctl-section"],
             color="default", sizing_mode="stretch_width")
         self.widgets["bif"] = pn.widgets.RadioButtonGroup(
-            options={"Ĩ vs Λ": "lam", "Ĩ vs φ₂": "phi2"}, value=s.bif, css_classes=["ctl-bif"],
-            sizing_mode="stretch_width")
+            options=dict(BIF_OPTIONS), value="lam" if s.bif == "rpm" else s.bif,
+            css_classes=["ctl-bif"], sizing_mode="stretch_width")
         self.widgets["overlays"] = pn.widgets.Checkbox(
             label="overlays: contact boundary Λ_c and 2πn/Λ", value=s.overlays,
             css_classes=["ctl-overlays"])
         for name, w in self.widgets.items():
             w.param.watch(functools.partial(self._on_widget, name), "value")
+        self.bif_si = pn.widgets.Checkbox(label="impulse in N·s", value=False, visible=False,
+                                          css_classes=["ctl-bif-si"])
+        self.bif_si.param.watch(self._on_bif_si, "value")
 
         # harmonics beyond the second: add or remove orders
         self.harm_order = pn.widgets.IntInput(label="order k", value=3, start=3, end=32, width=80)
@@ -228,7 +235,8 @@ class Dashboard:
         ]
         top = pn.Row(self.badge, self.metrics, sizing_mode="stretch_width")
         section = pn.Column(ctl("section"), self.sec_fig, sizing_mode="stretch_width")
-        bif = pn.Column(pn.Row(self.widgets["bif"], self.widgets["overlays"], sizing_mode="stretch_width"),
+        bif = pn.Column(pn.Row(self.widgets["bif"], self.widgets["overlays"], self.bif_si,
+                               sizing_mode="stretch_width"),
                         self.alerts["bif"], self.progress, self.bif_status, self.bif_fig,
                         sizing_mode="stretch_width")
         explorer = pn.Column(top, *[obj for panel in self.panels for obj in panel.explorer],
@@ -567,13 +575,47 @@ class Dashboard:
 
     def _bif_request_key(self) -> tuple:
         name = self.state.bif
+        if name == "rpm":
+            # the dimensionless parameter an engine-speed sweep moves (Λ, or j with accelerations
+            # held), and the physical constants that map it to rpm
+            swept, _ = units.rpm_sweep(self.physical, self.physical.rpm)
+            base = self.params.with_value(swept, 1.0)
+            return (name, swept, repr(base.canonical()), repr(self.physical.with_rpm(1.0)))
         base = self.params.with_value(name, 1.0)
         return (name, repr(base.canonical()))
 
+    def _units_panel(self) -> units_panel.UnitsPanel | None:
+        return next((p for p in getattr(self, "panels", ()) if isinstance(p, units_panel.UnitsPanel)),
+                    None)
+
+    def units_changed(self) -> None:
+        """The physical-units mode or its inputs changed: offer, update or withdraw "Ĩ vs rpm"."""
+        on = self.physical is not None
+        if not on and self.state.bif == "rpm":
+            self.clear_error("bif")
+            apply_values(self.state, {"bif": "lam"})
+        options = {**BIF_OPTIONS, "Ĩ vs rpm": "rpm"} if on else dict(BIF_OPTIONS)
+        if self.widgets["bif"].options != options:
+            self._syncing = True
+            try:
+                self.widgets["bif"].options = options
+            finally:
+                self._syncing = False
+        if on and self.state.bif == "rpm" and self.tr is not None:
+            self._update_bifurcation()
+
     def _update_bifurcation(self) -> None:
         name = self.state.bif
+        if name == "rpm":
+            panel = self._units_panel()
+            self.physical = panel.sync() if panel is not None else None
+            if self.physical is None:  # units mode off: the engine-speed axis has no meaning
+                self._set_quietly({"bif": "lam"})
+                name = "lam"
+        self.bif_si.visible = name == "rpm"
         self.bif_fig.xaxis.axis_label = BIF_AXIS[name]
-        value = getattr(self.state, name)
+        self.bif_fig.yaxis.axis_label = self._bif_y_label(name)
+        value = self.physical.rpm if name == "rpm" else getattr(self.state, name)
         self.bif["marker"].location = value
         key = self._bif_request_key()
         if key != self._bif_key:
@@ -586,19 +628,60 @@ class Dashboard:
     def _start_base_diagram(self, name: str, value: float) -> None:
         self._cancel_job()
         self._bif_view = None
-        shipped = background.find_shipped(self.params, name)
+        shipped = None if name == "rpm" else background.find_shipped(self.params, name)
         if shipped is not None:
             self._set_diagram(shipped, self._bif_key)
             return
         lo, hi = BIF_RANGES[name]
-        if name == "lam":
+        if name in ("lam", "rpm"):
             lo, hi = min(lo, 0.8 * value), max(hi, 1.25 * value)
         values = np.linspace(lo, hi, BIF_VALUES[name])
         self._bif = None
         self.bif["sources"]["image"].data = dict(views.EMPTY_IMAGE)
         self.bif["sources"]["extent"].data = {"x": [lo, hi], "y": [0.0, 1.0]}
-        self._submit(background.SweepRequest(self.params, name, tuple(values), **BIF_PERIODS),
-                     merge=False)
+        self._submit(self._sweep_request(name, values), merge=False)
+
+    def _sweep_request(self, name: str, values: np.ndarray) -> background.SweepRequest:
+        """The background sweep behind diagram ``name`` at ``values`` (engine speeds for rpm)."""
+        if name == "rpm":
+            name, values = units.rpm_sweep(self.physical, values)
+        return background.SweepRequest(self.params, name, tuple(float(v) for v in values),
+                                       **BIF_PERIODS)
+
+    def rpm_diagram(self, diagram: background.Diagram) -> background.Diagram:
+        """A sweep of Λ (or j) along an engine-speed sweep, redrawn against rpm."""
+        phys = self.physical
+        v = diagram.value
+        if v.size == 0:
+            rpm = v
+        elif diagram.name == "lam":
+            rpm = units.rpm_from_lam(phys, v)
+        else:  # j ∝ rpm² with acceleration amplitudes held
+            rpm = phys.rpm * np.sqrt(v / float(units.j_from_rpm(phys, phys.rpm)))
+        return background.Diagram(name="rpm", value=np.asarray(rpm, dtype=np.float64),
+                                  impulse=diagram.impulse, flank=diagram.flank,
+                                  source=diagram.source, cancelled=diagram.cancelled)
+
+    def _bif_y_label(self, name: str) -> str:
+        if name == "rpm" and self.bif_si.value:
+            return "impulse I (N·s, along the line of action)"
+        return "impulse Ĩ (dimensionless)" if name == "rpm" else "impulse Ĩ"
+
+    def _bif_points(self) -> tuple[np.ndarray, np.ndarray]:
+        """The diagram's (x, impulse) as drawn: impulses in N·s when asked, against rpm."""
+        d = self._bif
+        if d.name == "rpm" and self.bif_si.value and self.physical is not None and d.value.size:
+            return d.value, d.impulse * units.impulse_scale_from_rpm(self.physical, d.value)
+        return d.value, d.impulse
+
+    @guarded
+    def _on_bif_si(self, event) -> None:
+        self._bif_view = None
+        self._overlay_key = None
+        if self._bif is not None:
+            self._set_diagram(self._bif, self._bif_key)
+        if self.state.bif == "rpm":
+            self.bif_fig.yaxis.axis_label = self._bif_y_label("rpm")
 
     def _submit(self, req: background.SweepRequest, merge: bool) -> None:
         key = self._bif_key
@@ -653,6 +736,8 @@ class Dashboard:
             return
         self._job = None
         self.progress.visible = False
+        if key[0] == "rpm":
+            diagram = self.rpm_diagram(diagram)
         if merge and self._bif is not None:
             lo, hi = diagram.span
             keep = (self._bif.value < lo) | (self._bif.value > hi)
@@ -667,8 +752,9 @@ class Dashboard:
 
     def _set_diagram(self, diagram: background.Diagram, key: tuple) -> None:
         self._bif = diagram
-        xr = views.padded_range(diagram.value, 0.01)
-        yr = views.padded_range(diagram.impulse)
+        x, y = self._bif_points()
+        xr = views.padded_range(x, 0.01)
+        yr = views.padded_range(y)
         self.bif["sources"]["extent"].data = {"x": list(xr), "y": list(yr)}
         n_vals = len(np.unique(diagram.value))
         self.bif_status.object = f"{n_vals} values, {len(diagram.value)} impacts · {diagram.source}"
@@ -680,13 +766,14 @@ class Dashboard:
         if d is None or len(d.value) == 0:
             self.bif["sources"]["image"].data = dict(views.EMPTY_IMAGE)
             return
+        x, y = self._bif_points()
         if self._bif_view is not None:
             xr, yr = self._bif_view[:2], self._bif_view[2:]
         else:
-            xr, yr = views.padded_range(d.value, 0.01), views.padded_range(d.impulse)
+            xr, yr = views.padded_range(x, 0.01), views.padded_range(y)
         w, h = self._pixels(self.bif_fig)
         self.bif["sources"]["image"].data = views.rasterize(
-            d.value, d.impulse, xr, yr, w, h, category=d.flank,
+            x, y, xr, yr, w, h, category=d.flank,
             colors={1: views.ACTIVE_COLOR, -1: views.REVERSE_COLOR})
 
     def _draw_overlays(self) -> None:
@@ -698,12 +785,16 @@ class Dashboard:
             xr = views.padded_range(self._bif.value, 0.01)
         else:
             xr = BIF_RANGES[name]
-        key = (on, name, tuple(xr), self._bif_key, self.state.lam if name == "phi2" else None)
+        key = (on, name, tuple(xr), self._bif_key, self.state.lam if name == "phi2" else None,
+               self.bif_si.value)
         if key == self._overlay_key:
             return
         self._overlay_key = key
-        lam_c = contact_boundary(self.params) if name == "lam" else None
-        ov = views.overlay_lines(name, self.state.lam, xr, lam_c)
+        lam_c = contact_boundary(self.params) if name in ("lam", "rpm") else None
+        if name == "rpm":
+            ov = views.rpm_overlay_lines(self.physical, xr, lam_c, self.bif_si.value)
+        else:
+            ov = views.overlay_lines(name, self.state.lam, xr, lam_c)
         self.bif["sources"]["curves"].data = ov["curves"] if on else {"xs": [], "ys": [], "n": []}
         b = self.bif["boundary"]
         if on and ov["boundary"] is not None:
@@ -719,6 +810,14 @@ class Dashboard:
     def set_from_diagram(self, x: float) -> None:
         """A click on the diagram sets the swept parameter to the clicked value."""
         name = self.state.bif
+        if name == "rpm":
+            panel = self._units_panel()
+            msg = panel.set_rpm(round(float(x), 1)) if panel is not None else "units mode is off"
+            if msg:
+                self.show_error("bif", msg)
+            else:
+                self.clear_error("bif")
+            return
         value = round(float(x), 4 if name == "lam" else 2)
         errors = apply_values(self.state, {name: value})
         if errors:
@@ -767,7 +866,7 @@ class Dashboard:
         name = self.state.bif
         full_lo, full_hi = d.span
         lo, hi = max(view[0], full_lo), min(view[1], full_hi)
-        if name == "lam":
+        if name in ("lam", "rpm"):
             lo = max(lo, 1e-3)
         if hi <= lo or (hi - lo) > 0.6 * (full_hi - full_lo):
             return False
@@ -777,8 +876,7 @@ class Dashboard:
         if len(shown) >= ZOOM_VALUES * 0.8:
             return False
         values = np.linspace(lo, hi, ZOOM_VALUES)
-        self._submit(background.SweepRequest(self.params, name, tuple(values), **BIF_PERIODS),
-                     merge=True)
+        self._submit(self._sweep_request(name, values), merge=True)
         return True
 
     # ----- export and teardown ------------------------------------------------------------

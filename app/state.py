@@ -69,7 +69,8 @@ FIELDS: dict[str, Field] = {f.name: f for f in [
 ]}
 
 SECTIONS = ("absolute", "relative", "impact")
-BIF_PARAMS = ("lam", "phi2")
+#: Bifurcation diagrams: Ĩ against Λ, φ₂, or engine speed (physical-units mode only).
+BIF_PARAMS = ("lam", "phi2", "rpm")
 
 
 def paper_phase2(phi_paper_deg: float) -> float:

@@ -182,6 +182,30 @@ def overlay_lines(name: str, lam: float, x_range: tuple[float, float], lam_c: fl
     return {"curves": {"xs": xs, "ys": ys, "n": ns}, "boundary": boundary}
 
 
+def rpm_overlay_lines(phys, x_range: tuple[float, float], lam_c: float | None,
+                      newton_seconds: bool = False, orders: int = 4) -> dict:
+    """The overlays of :func:`overlay_lines` for a diagram against engine speed.
+
+    Along an engine-speed sweep of ``phys`` (a ``rattle_core.units.PhysicalParams``), Λ(rpm)
+    is ``units.lam_from_rpm``, so the one-sided period-n impulses are ``2πn/Λ(rpm)``, times
+    ``m ω H₁`` in N·s; the contact boundary Λ_c sits at ``units.rpm_from_lam(Λ_c)`` when Λ
+    moves with speed (displacement amplitudes held).
+    """
+    from rattle_core import units
+
+    lo, hi = max(float(x_range[0]), 1e-3), max(float(x_range[1]), 2e-3)
+    rpm = np.linspace(lo, hi, 200)
+    lam = units.lam_from_rpm(phys, rpm)
+    scale = units.impulse_scale_from_rpm(phys, rpm) if newton_seconds else 1.0
+    xs = [rpm] * orders
+    ys = [TWO_PI * n / lam * scale for n in range(1, orders + 1)]
+    ns = [f"2π·{n}/Λ" for n in range(1, orders + 1)]
+    boundary = None
+    if phys.excitation == "displacement" and lam_c is not None and math.isfinite(lam_c) and lam_c > 0:
+        boundary = float(units.rpm_from_lam(phys, lam_c))
+    return {"curves": {"xs": xs, "ys": ys, "n": ns}, "boundary": boundary}
+
+
 def badge_html(cls) -> str:
     """The regime badge: letter, period, chaotic or not, Lyapunov exponent."""
     color = REGIME_COLORS.get(cls.regime, "#555")
