@@ -1,8 +1,409 @@
-"""(in development)"""
+"""The rattle sound of the current trajectory: a card in the Explorer tab.
+
+The card plays :func:`rattle_core.sound.synthesize` of ``dashboard.tr`` (its first N periods),
+normalised to a peak of 0.99 because ``pn.pane.Audio`` turns floats into int16 as
+``int16(x × 32768)``, without clipping. It offers the sound's own settings (periods to play,
+excitation frequency, housing modes, polarity, sample rate), a 16-bit WAV download and one line
+saying what the user should hear.
+
+Time scale: in dimensionless mode the fundamental excitation frequency is the one set here; in
+physical-units mode (``dashboard.physical`` is a :class:`~rattle_core.units.PhysicalParams`) it
+follows the engine speed, ``f = order × rpm / 60``, and the card says so.
+
+Cost: ``synthesize`` takes about 20 ms for the default 200 periods at 50 Hz and 44.1 kHz
+(4.15 s of sound, five modes), and each new sound sends about 0.5 MB of base64 WAV to the
+browser. That is too much for the slider path, so :meth:`SoundPanel.on_redraw` only marks the
+sound stale (and says so on the card); the sound is rendered when the user presses
+"Render / play", at every redraw only while "auto" is on, and at once when one of the sound's own
+settings changes. The very first redraw of a session renders, so the page opens with a sound.
+"""
 from __future__ import annotations
+
+import dataclasses
+import functools
+import io
+import logging
+import math
+import time
+from typing import TYPE_CHECKING, Any, Callable
+
+import numpy as np
+import panel as pn
+from scipy.io import wavfile
+
+from rattle_core.excitation import TWO_PI
+from rattle_core.params import check_range
+from rattle_core.sound import (DEFAULT_EXCITATION_HZ, DEFAULT_MODES, DEFAULT_SAMPLE_RATE,
+                               DEFAULT_TAIL, EXCITATION_HZ_RANGE, HousingMode, parse_modes,
+                               synthesize, to_int16)
+from rattle_core.units import PhysicalParams
 
 from .panel_base import FeaturePanel
 
+if TYPE_CHECKING:
+    from .dashboard import Dashboard
+
+log = logging.getLogger(__name__)
+
+#: Sample rates offered [Hz]; every one is within the library's allowed range.
+SAMPLE_RATES = (8_000, 16_000, 22_050, 44_100, 48_000, 96_000)
+#: Forcing periods played: at most this many, and never more than the trajectory holds.
+PERIODS_RANGE = (1, 2_000)
+DEFAULT_PERIODS = 200
+#: Longest sound rendered [s] and most samples: beyond them the render (and the base64 WAV sent
+#: to the browser, two bytes and a third per sample) would stall the session.
+MAX_SECONDS = 30.0
+MAX_SAMPLES = 2_000_000
+POLARITIES = {"signed (flank flips polarity)": "signed", "absolute": "absolute"}
+SETTINGS = ("periods", "excitation", "modes", "polarity", "sample_rate")
+
+
+def format_modes(modes: tuple[HousingMode, ...]) -> str:
+    """Modes as the text :func:`~rattle_core.sound.parse_modes` reads back."""
+    return ", ".join(f"{m.freq_hz:g}:{m.damping:g}:{m.gain:g}" for m in modes)
+
+
+def first_periods(tr, periods: int):
+    """``tr`` cut to its first ``periods`` forcing periods (``tr`` itself if it is not longer).
+
+    Only what the sound uses is kept consistent: the window and the impacts, strobe samples and
+    segments inside it.
+    """
+    if periods >= tr.periods - 1e-9:
+        return tr
+    t_end = tr.t_start + periods * TWO_PI
+    imp = tr.impact_t < t_end
+    strobe = tr.strobe_t < t_end
+    seg = tr.seg_t < t_end
+    return dataclasses.replace(
+        tr, t_end=t_end, impact_t=tr.impact_t[imp], impact_phase=tr.impact_phase[imp],
+        impact_impulse=tr.impact_impulse[imp], impact_flank=tr.impact_flank[imp],
+        impact_w=tr.impact_w[imp], strobe_t=tr.strobe_t[strobe], strobe_x=tr.strobe_x[strobe],
+        strobe_v=tr.strobe_v[strobe], seg_t=tr.seg_t[seg], seg_kind=tr.seg_kind[seg],
+        seg_x=tr.seg_x[seg], seg_v=tr.seg_v[seg])
+
+
+def what_to_hear(classification, impacts: int, seconds: float, freq_hz: float) -> str:
+    """One line: impacts per second and the regime, as the ear meets them."""
+    if classification is None:
+        return ""
+    c = classification
+    if impacts == 0:
+        if c.regime in ("A", "B") or c.stick_fraction > 0:
+            return ("**Silence**: the gear rides the driving tooth (permanent contact), "
+                    "so nothing strikes the housing.")
+        return "**Silence**: no impact in the periods played."
+    rate = c.impacts_per_period * freq_hz
+    if c.regime == "B":
+        return (f"**Chatter, then silence**: {impacts} impacts in {seconds:.2f} s, then the gear "
+                f"sticks to the tooth ({100 * c.stick_fraction:.2g}% of the time) and the housing "
+                "rings out.")
+    if c.regime == "D":
+        stick = " with silent stick phases" if c.stick_fraction > 0 else ""
+        return f"**Chaotic rattle**{stick}: irregular impacts, about {rate:.4g} per second."
+    if c.regime == "Q":
+        return f"**Irregular rattle** (non-repeating): about {rate:.4g} impacts per second."
+    return (f"**Periodic buzz**: {rate:.4g} impacts per second, repeating every {c.period} "
+            f"period{'s' if c.period > 1 else ''} ({freq_hz / max(c.period, 1):.4g} Hz).")
+
+
+def guarded(method: Callable) -> Callable:
+    """Run a callback; an exception becomes a message on the card, never a traceback."""
+    @functools.wraps(method)
+    def wrapper(self: "SoundPanel", *args: Any, **kwargs: Any) -> Any:
+        try:
+            return method(self, *args, **kwargs)
+        except Exception as exc:
+            log.warning("sound %s failed: %s: %s", method.__name__, type(exc).__name__, exc)
+            self.show_error("render", f"{type(exc).__name__}: {exc}")
+            return None
+    return wrapper
+
 
 class SoundPanel(FeaturePanel):
-    pass
+    """The "Rattle sound" card: an audio player, its settings and a WAV export."""
+
+    def __init__(self, dashboard: "Dashboard"):
+        super().__init__(dashboard)
+        #: Last accepted value of every setting; a rejected entry leaves these unchanged.
+        self.settings: dict[str, Any] = {
+            "periods": DEFAULT_PERIODS, "excitation": DEFAULT_EXCITATION_HZ,
+            "modes": DEFAULT_MODES, "polarity": "signed", "sample_rate": DEFAULT_SAMPLE_RATE}
+        self.signal: np.ndarray | None = None
+        self.sample_rate = DEFAULT_SAMPLE_RATE
+        self.stale = True
+        self.render_ms = math.nan
+        self._rendered: dict[str, Any] = {}
+        self._scale_text = ""
+        self._first = True
+        self._syncing = False
+        self._build()
+
+    # ----- construction -------------------------------------------------------------------
+
+    def _build(self) -> None:
+        s = self.settings
+        self.audio = pn.pane.Audio(None, sample_rate=s["sample_rate"], name="rattle sound",
+                                   css_classes=["sound-audio"], sizing_mode="stretch_width",
+                                   margin=(5, 10))
+        self.render_button = pn.widgets.Button(label="Render / play", color="primary",
+                                               css_classes=["sound-render"], width=130)
+        self.auto = pn.widgets.Checkbox(label="auto (render at every redraw)", value=False,
+                                        css_classes=["sound-auto"], align="center")
+        self.download = pn.widgets.FileDownload(callback=self._wav, filename="rattle.wav",
+                                                label="Sound as WAV", css_classes=["sound-download"],
+                                                width=150)
+        self.widgets: dict[str, Any] = {
+            "periods": pn.widgets.IntInput(
+                label=f"periods to play ({PERIODS_RANGE[0]}–{PERIODS_RANGE[1]})",
+                value=s["periods"], step=10, css_classes=["sound-periods"], width=160),
+            "excitation": pn.widgets.FloatInput(
+                label="excitation f (Hz)", value=s["excitation"], step=5.0,
+                css_classes=["sound-excitation"], width=140),
+            "sample_rate": pn.widgets.Select(
+                label="sample rate (Hz)", options=list(SAMPLE_RATES), value=s["sample_rate"],
+                css_classes=["sound-rate"], width=130),
+            "polarity": pn.widgets.RadioButtonGroup(
+                options=POLARITIES, value=s["polarity"], css_classes=["sound-polarity"],
+                align="end"),
+            "modes": pn.widgets.TextInput(
+                label="housing modes, f (Hz) : damping ζ : gain, comma-separated",
+                value=format_modes(s["modes"]), placeholder=format_modes(DEFAULT_MODES),
+                css_classes=["sound-modes"], sizing_mode="stretch_width"),
+        }
+        self.alerts = {name: pn.pane.Alert("", alert_type="danger", visible=False, margin=(0, 10),
+                                           css_classes=[f"msg-sound-{name}"],
+                                           sizing_mode="stretch_width")
+                       for name in (*SETTINGS, "render")}
+        self.hear = pn.pane.Markdown("", css_classes=["sound-hear"], margin=(0, 10),
+                                     sizing_mode="stretch_width")
+        self.status = pn.pane.Markdown("", css_classes=["sound-status"], margin=(0, 10),
+                                       sizing_mode="stretch_width",
+                                       styles={"color": "#777", "font-size": "12px"})
+        for name, w in self.widgets.items():
+            w.param.watch(functools.partial(self._on_setting, name), "value")
+        self.render_button.on_click(self._on_render)
+        self.auto.param.watch(self._on_auto, "value")
+        self._update_status()
+
+        a = self.alerts
+        self.card = pn.Card(
+            pn.Row(self.render_button, self.auto, self.download, sizing_mode="stretch_width"),
+            self.audio, self.hear, self.status, a["render"],
+            pn.Row(pn.Column(self.widgets["periods"], a["periods"], margin=0),
+                   pn.Column(self.widgets["excitation"], a["excitation"], margin=0),
+                   pn.Column(self.widgets["sample_rate"], a["sample_rate"], margin=0),
+                   self.widgets["polarity"], sizing_mode="stretch_width"),
+            self.widgets["modes"], a["modes"],
+            pn.pane.Markdown(f"Default modes (an illustrative cast housing, not a measured one): "
+                             f"`{format_modes(DEFAULT_MODES)}`", margin=(0, 10),
+                             styles={"color": "#777", "font-size": "12px"}),
+            title="Rattle sound", collapsed=False, sizing_mode="stretch_width",
+            css_classes=["sound-card"])
+        self.explorer = [self.card]
+
+    # ----- messages -----------------------------------------------------------------------
+
+    def show_error(self, name: str, message: str) -> None:
+        alert = self.alerts.get(name, self.alerts["render"])
+        alert.param.update(object=message, visible=True)
+
+    def clear_error(self, name: str) -> None:
+        alert = self.alerts[name]
+        if alert.visible:
+            alert.param.update(object="", visible=False)
+
+    # ----- settings -----------------------------------------------------------------------
+
+    @staticmethod
+    def validate(name: str, value: Any) -> Any:
+        """``value`` cleaned for setting ``name``, or ``ValueError`` naming it and its range."""
+        if name == "periods":
+            lo, hi = PERIODS_RANGE
+            v = check_range("periods to play", value, lo, hi)
+            if v != int(v):
+                raise ValueError(f"periods to play = {value!r} must be a whole number in [{lo}, {hi}]")
+            return int(v)
+        if name == "excitation":
+            return check_range("excitation f (Hz)", value, *EXCITATION_HZ_RANGE, lo_open=True)
+        if name == "modes":
+            return parse_modes(value)
+        if name == "polarity":
+            if value not in POLARITIES.values():
+                raise ValueError(f"polarity = {value!r} is not allowed; use 'signed' or 'absolute'")
+            return value
+        if name == "sample_rate":
+            if value not in SAMPLE_RATES:
+                raise ValueError(f"sample rate = {value!r} Hz is not offered; choose one of "
+                                 f"{', '.join(map(str, SAMPLE_RATES))}")
+            return int(value)
+        raise ValueError(f"unknown sound setting {name!r}")
+
+    @guarded
+    def _on_setting(self, name: str, event) -> None:
+        if not self._syncing:
+            self.set(name, event.new)
+
+    def set(self, name: str, value: Any) -> bool:
+        """Accept a setting and render with it.
+
+        A value that is invalid, or that cannot render with the other settings (a mode above
+        the Nyquist frequency, too long a sound), leaves a message beside its control, the last
+        good setting and the last good sound.
+        """
+        old = self.settings[name]
+        try:
+            self.settings[name] = self.validate(name, value)
+        except (TypeError, ValueError) as exc:
+            self.show_error(name, f"{exc}. {self._kept(name)}")
+            self._revert_widget(name)
+            return False
+        self.clear_error(name)
+        if self.render(source=name):
+            return True
+        self.settings[name] = old
+        self._revert_widget(name)
+        self.show_error(name, f"{self.alerts[name].object} {self._kept(name)}")
+        return False
+
+    def _kept(self, name: str) -> str:
+        v = self.settings[name]
+        shown = format_modes(v) if name == "modes" else f"{v:g}" if name != "polarity" else v
+        return f"Kept {name.replace('_', ' ')} = {shown} and the last good sound."
+
+    def _revert_widget(self, name: str) -> None:
+        """Show the setting in use again; the modes text stays as typed, for correction."""
+        if name == "modes":
+            return
+        self._syncing = True
+        try:
+            self.widgets[name].value = self.settings[name]
+        finally:
+            self._syncing = False
+
+    @guarded
+    def _on_auto(self, event) -> None:
+        if event.new and self.stale:
+            self.render()
+
+    @guarded
+    def _on_render(self, event=None) -> None:
+        if self.render():
+            # the click is the user's gesture the browser asks for before it plays a sound
+            self.audio.param.update(autoplay=True, paused=False)
+
+    # ----- rendering ----------------------------------------------------------------------
+
+    def physical(self) -> PhysicalParams | None:
+        phys = getattr(self.dashboard, "physical", None)
+        return phys if isinstance(phys, PhysicalParams) else None
+
+    def excitation_hz(self) -> float:
+        """The fundamental frequency the sound is played at [Hz]."""
+        phys = self.physical()
+        return phys.frequency_hz if phys is not None else self.settings["excitation"]
+
+    def _update_status(self) -> None:
+        phys = self.physical()
+        if phys is not None:
+            scale = (f"Physical units: the time scale follows the engine, {phys.rpm:g} rpm × "
+                     f"order {phys.order:g} / 60 = {phys.frequency_hz:.4g} Hz fundamental.")
+        else:
+            scale = (f"Dimensionless mode: one forcing period lasts 1/f, f = "
+                     f"{self.settings['excitation']:g} Hz.")
+        stale = (" **Stale**: the trajectory changed since this sound was rendered; press "
+                 "Render / play." if self.stale and self.signal is not None else "")
+        text = scale + stale
+        if text != self._scale_text:
+            self._scale_text = text
+            self.status.object = text
+        self.widgets["excitation"].disabled = phys is not None
+
+    def _check_size(self, window, freq: float, sample_rate: int) -> None:
+        seconds = (window.t_end - window.t_start) / (TWO_PI * freq) + DEFAULT_TAIL
+        if seconds > MAX_SECONDS:
+            raise ValueError(f"duration = {seconds:.4g} s ({window.periods:.0f} periods at "
+                             f"{freq:.4g} Hz) is outside the allowed range (0, {MAX_SECONDS:g}] s; "
+                             "play fewer periods or raise the excitation frequency")
+        if seconds * sample_rate > MAX_SAMPLES:
+            raise ValueError(f"duration = {seconds:.4g} s at {sample_rate} Hz gives "
+                             f"{seconds * sample_rate:,.0f} samples; the allowed maximum is "
+                             f"{MAX_SAMPLES:,}: play fewer periods or lower the sample rate")
+
+    def render(self, source: str | None = None) -> bool:
+        """Synthesise the sound of the current trajectory and load it into the player.
+
+        On failure the message goes beside the setting ``source`` (or the one it names) and
+        the last good sound stays. Returns whether a new sound was loaded.
+        """
+        tr = self.dashboard.tr
+        if tr is None:
+            return False
+        t0 = time.perf_counter()
+        s = self.settings
+        phys = self.physical()
+        freq = self.excitation_hz()
+        window = first_periods(tr, s["periods"])
+        try:
+            self._check_size(window, freq, s["sample_rate"])
+            signal, rate = synthesize(window, sample_rate=s["sample_rate"],
+                                      excitation_hz=None if phys is not None else freq,
+                                      physical=phys, modes=s["modes"], polarity=s["polarity"])
+        except ValueError as exc:
+            msg = str(exc)
+            target = source or ("modes" if msg.startswith("mode") else
+                                "periods" if msg.startswith("duration") else "render")
+            self.show_error(target, f"{msg}." if source else f"{msg}. Kept the last good sound.")
+            return False
+        self.clear_error("render")
+        if source is not None:
+            self.clear_error(source)
+        self.signal, self.sample_rate = signal, rate
+        # sample_rate first: the pane encodes the WAV with the rate it holds when the data lands
+        self.audio.param.update(sample_rate=rate, object=signal)
+        self.stale = False
+        self._rendered = dict(s, freq=freq, physical=phys, periods_played=window.periods)
+        self.download.filename = self.filename()
+        seconds = signal.size / rate
+        self.hear.object = what_to_hear(self.dashboard.classification, int(window.impact_t.size),
+                                        seconds, freq)
+        self._update_status()
+        self.render_ms = 1e3 * (time.perf_counter() - t0)
+        return True
+
+    def filename(self) -> str:
+        """WAV file name carrying the parameters of the sound last rendered."""
+        p = self.dashboard.params
+        r = self._rendered
+        phys = r.get("physical")
+        scale = f"{phys.rpm:g}rpm-o{phys.order:g}" if phys is not None else f"{r['freq']:g}Hz"
+        return (f"rattle_lam{p.lam:g}_r{p.r:g}_j{p.j:g}_{scale}_{r['periods_played']:.0f}per_"
+                f"{r['polarity']}_{r['sample_rate']}.wav")
+
+    def wav_bytes(self) -> bytes:
+        """The sound last rendered as a mono 16-bit PCM WAV file."""
+        if self.signal is None:
+            raise ValueError("no sound has been rendered yet; press Render / play")
+        buf = io.BytesIO()
+        wavfile.write(buf, self.sample_rate, to_int16(self.signal))
+        return buf.getvalue()
+
+    def _wav(self) -> io.BytesIO:
+        try:
+            if self.stale:
+                self.render()
+            return io.BytesIO(self.wav_bytes())
+        except Exception as exc:
+            log.warning("sound WAV export failed: %s: %s", type(exc).__name__, exc)
+            self.show_error("render", f"The WAV could not be written: {exc}")
+            return io.BytesIO(b"")
+
+    # ----- the dashboard's hooks -----------------------------------------------------------
+
+    @guarded
+    def on_redraw(self) -> None:
+        first, self._first = self._first, False
+        if (first or self.auto.value) and self.render():
+            return
+        self.stale = True
+        self._update_status()
