@@ -22,6 +22,11 @@ Definitions (all over the recorded window of ``P`` forcing periods, after the tr
   described by :attr:`Classification.label`) or ``Q`` (non-repeating without a positive
   exponent: quasi-periodic or a long transient).
 
+:func:`classify_arrays` classifies one window with numpy; :func:`classify_batch` classifies many
+windows at once in a compiled loop (sweeps and maps), with the same definitions and the same
+floating-point operations in the same order, so both give identical numbers value for value
+(sums follow numpy's pairwise summation).
+
 Analytic overlays: the permanent-contact boundary ``Λ_c = 1 / max_t(−ÿ)``, the one-sided
 period-n orbits (impulse ``2πn/Λ``) and their stability from the impact-map Jacobian
 (determinant ``r²``, trace ``1 + r² + (1 + r)² Λ ÿ(θ*)``).
@@ -32,6 +37,7 @@ import dataclasses
 import math
 
 import numpy as np
+from numba import njit
 
 from .excitation import TWO_PI, excitation
 from .params import RattleParams
@@ -48,6 +54,8 @@ REGIMES = {
     "P": "periodic",
     "Q": "non-repeating, no positive exponent",
 }
+#: Regime letters in the order of the codes :func:`classify_batch` returns.
+REGIME_LETTERS = tuple(REGIMES)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -150,6 +158,203 @@ def classify_arrays(impulse: np.ndarray, flank: np.ndarray, strobe_x: np.ndarray
                           intensity=float(np.sum(impulse * impulse) / periods),
                           mean_impulse_active=ma, rms_impulse_active=ra,
                           mean_impulse_reverse=mr, rms_impulse_reverse=rr)
+
+
+@njit(cache=True, nogil=True)
+def _block_sum(a, lo, n):
+    if n < 8:
+        res = 0.0
+        for i in range(lo, lo + n):
+            res += a[i]
+        return res
+    r0 = a[lo]
+    r1 = a[lo + 1]
+    r2 = a[lo + 2]
+    r3 = a[lo + 3]
+    r4 = a[lo + 4]
+    r5 = a[lo + 5]
+    r6 = a[lo + 6]
+    r7 = a[lo + 7]
+    m = n - n % 8
+    for i in range(lo + 8, lo + m, 8):
+        r0 += a[i]
+        r1 += a[i + 1]
+        r2 += a[i + 2]
+        r3 += a[i + 3]
+        r4 += a[i + 4]
+        r5 += a[i + 5]
+        r6 += a[i + 6]
+        r7 += a[i + 7]
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    for i in range(lo + m, lo + n):
+        res += a[i]
+    return res
+
+
+@njit(cache=True, nogil=True)
+def _pairwise_sum(a, lo, n):
+    """``np.sum(a[lo:lo + n])`` with numpy's own pairwise summation, bit for bit.
+
+    numpy adds runs of up to 128 values in eight interleaved partial sums and splits longer
+    runs in two (the first part a multiple of 8, about half), adding the halves' sums;
+    following that order keeps :func:`classify_batch` identical to :func:`classify_arrays`.
+    The split is walked with explicit stacks: numba cannot cache recursive functions.
+    """
+    if n <= 128:
+        return 0.0 + _block_sum(a, lo, n)
+    # a task is (start, length) to sum, or length −1: add the last two sums
+    t_lo = np.empty(192, np.int64)
+    t_n = np.empty(192, np.int64)
+    sums = np.empty(96)
+    nt = 1
+    ns = 0
+    t_lo[0] = lo
+    t_n[0] = n
+    while nt > 0:
+        nt -= 1
+        s0 = t_lo[nt]
+        m = t_n[nt]
+        if m < 0:
+            ns -= 1
+            sums[ns - 1] = sums[ns - 1] + sums[ns]
+        elif m <= 128:
+            sums[ns] = _block_sum(a, s0, m)
+            ns += 1
+        else:
+            m2 = m // 2
+            m2 -= m2 % 8
+            t_n[nt] = -1
+            t_lo[nt + 1] = s0 + m2
+            t_n[nt + 1] = m - m2
+            t_lo[nt + 2] = s0
+            t_n[nt + 2] = m2
+            nt += 3
+    return 0.0 + sums[0]
+
+
+@njit(cache=True, nogil=True)
+def _detect_period_nb(sx, sv, scale, max_period, tol):
+    m = sx.shape[0]
+    if m < 4:
+        return 0
+    start = m // 2
+    thr = tol * (1.0 + scale)
+    top = min(max_period, m - start - 1)
+    for n in range(1, top + 1):
+        ok = True
+        for k in range(start, m - n):
+            # written as "not <=" so that a NaN fails, as it does in np.max(...) <= thr
+            if not abs(sx[k + n] - sx[k]) <= thr or not abs(sv[k + n] - sv[k]) <= thr:
+                ok = False
+                break
+        if ok:
+            return n
+    return 0
+
+
+@njit(cache=True, nogil=True)
+def _flank_stats(impulse, flank, lo, c, side, buf):
+    """Count, mean |Ĩ| and RMS |Ĩ| of one flank's impacts, summed as numpy sums them."""
+    k = 0
+    for i in range(lo, lo + c):
+        if flank[i] == side:
+            buf[k] = abs(impulse[i])
+            k += 1
+    if k == 0:
+        return 0, 0.0, 0.0
+    mean = _pairwise_sum(buf, 0, k) / k
+    for i in range(k):
+        buf[i] = buf[i] * buf[i]
+    rms = np.sqrt(_pairwise_sum(buf, 0, k) / k)
+    return k, mean, rms
+
+
+@njit(cache=True, nogil=True)
+def _classify_kernel(counts, impulse, flank, str_x, str_v, periods, stick, lyap, j,
+                     max_period, tol, chaos, regime, period, n_act, n_rev, a_pp, r_pp, stick_f,
+                     chaotic, intensity, mean_a, rms_a, mean_r, rms_r):
+    periods = max(periods, 1e-300)
+    cmax = 0
+    for i in range(counts.shape[0]):
+        cmax = max(cmax, counts[i])
+    buf = np.empty(cmax)
+    off = 0
+    for i in range(counts.shape[0]):
+        c = counts[i]
+        na, mean_a[i], rms_a[i] = _flank_stats(impulse, flank, off, c, 1, buf)
+        nr, mean_r[i], rms_r[i] = _flank_stats(impulse, flank, off, c, -1, buf)
+        for k in range(c):
+            buf[k] = impulse[off + k] * impulse[off + k]
+        intensity[i] = _pairwise_sum(buf, 0, c) / periods
+        off += c
+        sf = stick[i] / (periods * TWO_PI)
+        sf = sf if sf < 1.0 else 1.0
+        per = _detect_period_nb(str_x[i], str_v[i], j[i], max_period, tol)
+        ch = per == 0 and lyap[i] > chaos
+        ap = na / periods
+        rp = nr / periods
+        if na + nr == 0 and sf > 0.99:
+            code = 0
+        elif ch:
+            code = 3
+        elif sf > 0:
+            code = 1
+        elif per == 1 and nr == 0 and abs(ap - 1) < 0.02:
+            code = 2
+        elif per == 1 and abs(ap - 1) < 0.02 and abs(rp - 1) < 0.02:
+            code = 4
+        elif per > 0:
+            code = 5
+        else:
+            code = 6
+        regime[i] = code
+        period[i] = per
+        n_act[i] = na
+        n_rev[i] = nr
+        a_pp[i] = ap
+        r_pp[i] = rp
+        stick_f[i] = sf
+        chaotic[i] = ch
+
+
+def classify_batch(counts: np.ndarray, impulse: np.ndarray, flank: np.ndarray,
+                   strobe_x: np.ndarray, strobe_v: np.ndarray, periods: float,
+                   stick_time: np.ndarray, lyapunov: np.ndarray, j: np.ndarray) -> dict:
+    """Classify many windows at once; the same numbers as :func:`classify_arrays` for each.
+
+    ``impulse`` and ``flank`` hold the impacts of all windows one after the other
+    (``counts[i]`` of them for window i); ``strobe_x``/``strobe_v`` have one row per window;
+    ``stick_time``, ``lyapunov`` and ``j`` one value per window; ``periods`` is common.
+
+    Returns a dict of arrays: ``regime`` (codes into :data:`REGIME_LETTERS`), ``period``,
+    ``n_active``, ``n_reverse`` and every field of :class:`Classification`.
+    """
+    counts = np.ascontiguousarray(counts, dtype=np.int64)
+    nv = counts.shape[0]
+    if counts.sum() != len(impulse) or len(flank) != len(impulse):
+        raise ValueError(f"counts sum to {counts.sum()}, but there are {len(impulse)} impulses "
+                         f"and {len(flank)} flanks")
+    out = {"regime": np.empty(nv, np.int8), "period": np.empty(nv, np.int64),
+           "n_active": np.empty(nv, np.int64), "n_reverse": np.empty(nv, np.int64),
+           "active_per_period": np.empty(nv), "reverse_per_period": np.empty(nv),
+           "stick_fraction": np.empty(nv), "chaotic": np.empty(nv, np.bool_),
+           "intensity": np.empty(nv), "mean_impulse_active": np.empty(nv),
+           "rms_impulse_active": np.empty(nv), "mean_impulse_reverse": np.empty(nv),
+           "rms_impulse_reverse": np.empty(nv)}
+    lyap = np.ascontiguousarray(lyapunov, dtype=np.float64).reshape(nv)
+    _classify_kernel(counts, np.ascontiguousarray(impulse, dtype=np.float64),
+                     np.ascontiguousarray(flank, dtype=np.int8),
+                     np.ascontiguousarray(strobe_x, dtype=np.float64).reshape(nv, -1),
+                     np.ascontiguousarray(strobe_v, dtype=np.float64).reshape(nv, -1),
+                     float(periods), np.ascontiguousarray(stick_time, dtype=np.float64).reshape(nv),
+                     lyap, np.ascontiguousarray(j, dtype=np.float64).reshape(nv),
+                     MAX_PERIOD, PERIOD_TOL, LYAP_CHAOS, out["regime"], out["period"],
+                     out["n_active"], out["n_reverse"], out["active_per_period"],
+                     out["reverse_per_period"], out["stick_fraction"], out["chaotic"],
+                     out["intensity"], out["mean_impulse_active"], out["rms_impulse_active"],
+                     out["mean_impulse_reverse"], out["rms_impulse_reverse"])
+    out["lyapunov"] = lyap.copy()
+    return out
 
 
 def classify(tr) -> Classification:

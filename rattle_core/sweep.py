@@ -10,13 +10,18 @@ impulse, flank, phase) and a per-value summary (classification and rattle metric
 * ``mode="continuation"``: each value starts from the final state of the previous one, in the
   order given (pass descending values to sweep down); this follows one attractor and reveals
   coexisting ones.
-* ``executor``: a ``dask.distributed.Client`` runs the chunks on a cluster instead.
+* ``executor``: a ``dask.distributed.Client`` runs the chunks on a cluster instead; there each
+  chunk runs on one thread, since the workers already share the cores.
+
+Each chunk is classified in one compiled pass (:func:`~rattle_core.classify.classify_batch`),
+with the same numbers as classifying each value on its own.
 """
 from __future__ import annotations
 
 import dataclasses
 import math
 import os
+import sys
 import threading
 from typing import TYPE_CHECKING, Any, Callable, Sequence
 
@@ -24,7 +29,7 @@ import numpy as np
 from numba import njit, prange
 
 from . import solver
-from .classify import classify_arrays
+from .classify import REGIME_LETTERS, classify_batch
 from .excitation import excitation
 from .params import RattleParams, check_range, parse_name
 from .trajectory import MAX_PERIODS, SOLVER_VERSION, _check_int
@@ -40,29 +45,62 @@ SCHEMA_VERSION = 1
 _KERNEL_LOCK = threading.Lock()
 
 
+@njit(cache=True, nogil=True)
+def _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
+               imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
+               final_x, final_v):
+    imp_t = np.empty(cap)
+    imp_w = np.empty(cap)
+    seg_t = np.empty(0)
+    seg_k = np.empty(0, dtype=np.int8)
+    seg_x = np.empty(0)
+    seg_v = np.empty(0)
+    out = solver._integrate(lam[i], r[i], j[i], h[i], phi[i], vs[i], 0, 0.0, x0[i], v0[i],
+                            n_tr + n_rec, n_tr, 0.0, max_imp, True,
+                            imp_t, imp_tau[i], imp_I[i], imp_w, imp_flank[i],
+                            seg_t, seg_k, seg_x, seg_v, str_x[i], str_v[i])
+    status[i] = out[0]
+    counts[i] = out[1]
+    final_x[i] = out[6]
+    final_v[i] = out[7]
+    lt = out[10]
+    lyap[i] = out[9] / lt if lt > 0 else np.nan
+    stick[i] = out[11]
+
+
 @njit(parallel=True, cache=True, nogil=True)
 def _sweep_kernel(lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
                   imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
                   final_x, final_v):
-    nv = lam.shape[0]
-    for i in prange(nv):
-        imp_t = np.empty(cap)
-        imp_w = np.empty(cap)
-        seg_t = np.empty(0)
-        seg_k = np.empty(0, dtype=np.int8)
-        seg_x = np.empty(0)
-        seg_v = np.empty(0)
-        out = solver._integrate(lam[i], r[i], j[i], h[i], phi[i], vs[i], 0, 0.0, x0[i], v0[i],
-                                n_tr + n_rec, n_tr, 0.0, max_imp, True,
-                                imp_t, imp_tau[i], imp_I[i], imp_w, imp_flank[i],
-                                seg_t, seg_k, seg_x, seg_v, str_x[i], str_v[i])
-        status[i] = out[0]
-        counts[i] = out[1]
-        final_x[i] = out[6]
-        final_v[i] = out[7]
-        lt = out[10]
-        lyap[i] = out[9] / lt if lt > 0 else np.nan
-        stick[i] = out[11]
+    for i in prange(lam.shape[0]):
+        _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
+                   imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
+                   final_x, final_v)
+
+
+# The same loop on one thread, for a chunk running as a Dask task: the cluster's workers
+# already share the cores out, and a parallel kernel per task would put workers × cores
+# threads on them.  It needs no launch lock either, so a worker's threads run side by side.
+@njit(cache=True, nogil=True)
+def _sweep_kernel_serial(lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
+                         imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
+                         final_x, final_v):
+    for i in range(lam.shape[0]):
+        _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
+                   imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
+                   final_x, final_v)
+
+
+def _in_dask_worker() -> bool:
+    """True when called from a task on a Dask worker (distributed is then already imported)."""
+    distributed = sys.modules.get("distributed")
+    if distributed is None:
+        return False
+    try:
+        distributed.get_worker()
+    except ValueError:
+        return False
+    return True
 
 
 @dataclasses.dataclass
@@ -138,7 +176,10 @@ def _run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transie
     columns = name if isinstance(name, dict) else {name: values}
     lam, r, j, h, phi, vs = _param_arrays(base, columns)
     nv = len(values)
-    y0 = np.array([float(excitation(0.0, h[i], phi[i])) for i in range(nv)])
+    # a grid repeats each excitation many times: evaluate y(0) once per distinct one
+    hp, inverse = np.unique(np.hstack([h, phi]), axis=0, return_inverse=True)
+    kh = h.shape[1]
+    y0 = np.array([float(excitation(0.0, row[:kh], row[kh:])) for row in hp])[inverse.ravel()]
     if x0 is None:
         xs = y0 + 0.5 * j
     else:
@@ -146,6 +187,7 @@ def _run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transie
     vs0 = np.broadcast_to(np.asarray(v0, dtype=np.float64), (nv,)).copy()
     cap = 8 * record + 64
     todo = np.arange(nv)
+    on_worker = _in_dask_worker()
     res = {"counts": np.zeros(nv, np.int64), "status": np.zeros(nv, np.int64),
            "lyap": np.full(nv, np.nan), "stick": np.zeros(nv), "final_x": np.zeros(nv),
            "final_v": np.zeros(nv), "str_x": np.zeros((nv, record)), "str_v": np.zeros((nv, record))}
@@ -163,11 +205,15 @@ def _run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transie
         stick = np.zeros(m)
         fx = np.zeros(m)
         fv = np.zeros(m)
-        with _KERNEL_LOCK:
-            _sweep_kernel(lam[todo], r[todo], j[todo], np.ascontiguousarray(h[todo]),
-                          np.ascontiguousarray(phi[todo]), vs[todo], np.ascontiguousarray(xs[todo]),
-                          vs0[todo], transient, record, max_impacts_per_period, cap,
-                          imp_tau, imp_I, imp_fl, counts, status, str_x, str_v, lyap, stick, fx, fv)
+        args = (lam[todo], r[todo], j[todo], np.ascontiguousarray(h[todo]),
+                np.ascontiguousarray(phi[todo]), vs[todo], np.ascontiguousarray(xs[todo]),
+                vs0[todo], transient, record, max_impacts_per_period, cap,
+                imp_tau, imp_I, imp_fl, counts, status, str_x, str_v, lyap, stick, fx, fv)
+        if on_worker:
+            _sweep_kernel_serial(*args)
+        else:
+            with _KERNEL_LOCK:
+                _sweep_kernel(*args)
         again = []
         for a, i in enumerate(todo):
             if status[a] == solver.OVERFLOW_IMPACTS:
@@ -193,25 +239,35 @@ def _run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transie
     return res
 
 
+#: Regime letters of the summary, indexed by :func:`_summary_arrays`' ``regime_code``.
+REGIME_ORDER = REGIME_LETTERS + ("error",)
+_REGIME_OBJ = np.array(REGIME_ORDER, dtype=object)
+SUMMARY_COLUMNS = ["value", "regime", "period", "n_active", "n_reverse", "active_per_period",
+                   "reverse_per_period", "chaotic", "lyapunov", "stick_fraction", "intensity",
+                   "status"]
+
+
+def _summary_arrays(chunk: dict, record: int) -> dict:
+    """Per-value classification of a chunk, as arrays (one compiled pass over all values).
+
+    ``regime_code`` indexes :data:`REGIME_ORDER`: a run that did not finish (status ≠ 0) is
+    ``"error"`` whatever its partial window looks like.
+    """
+    cl = classify_batch(chunk["counts"], chunk["impulse"], chunk["flank"], chunk["str_x"],
+                        chunk["str_v"], record, chunk["stick"], chunk["lyap"], chunk["j"])
+    status = np.asarray(chunk["status"], dtype=np.int64)
+    cl["regime_code"] = np.where(status == 0, cl["regime"], len(REGIME_ORDER) - 1).astype(np.int8)
+    cl["status"] = status
+    return cl
+
+
 def _summarise(chunk: dict, record: int) -> pd.DataFrame:
     import pandas as pd
-    rows = []
-    off = 0
-    for i, v in enumerate(chunk["values"]):
-        c = int(chunk["counts"][i])
-        st = int(chunk["status"][i])
-        imp = chunk["impulse"][off:off + c]
-        fl = chunk["flank"][off:off + c]
-        off += c
-        cl = classify_arrays(imp, fl, chunk["str_x"][i], chunk["str_v"][i], record,
-                             chunk["stick"][i], chunk["lyap"][i], chunk["j"][i])
-        rows.append({"value": v, "regime": cl.regime if st == 0 else "error", "period": cl.period,
-                     "n_active": int((fl == 1).sum()), "n_reverse": int((fl == -1).sum()),
-                     "active_per_period": cl.active_per_period,
-                     "reverse_per_period": cl.reverse_per_period, "chaotic": cl.chaotic,
-                     "lyapunov": cl.lyapunov, "stick_fraction": cl.stick_fraction,
-                     "intensity": cl.intensity, "status": st})
-    return pd.DataFrame(rows)
+    cl = _summary_arrays(chunk, record)
+    cols = dict(cl)
+    cols["value"] = np.asarray(chunk["values"], dtype=np.float64)
+    cols["regime"] = _REGIME_OBJ[cl["regime_code"]]
+    return pd.DataFrame({k: cols[k] for k in SUMMARY_COLUMNS})
 
 
 def _table(chunk: dict) -> pd.DataFrame:
@@ -335,9 +391,7 @@ def sweep(base: RattleParams, name: str, values: Sequence[float], transient: int
         done_vals = np.concatenate([c["values"] for c in chunks])
     else:
         table = pd.DataFrame({"value": [], "impulse": [], "flank": np.empty(0, np.int8), "phase": []})
-        summary = pd.DataFrame(columns=["value", "regime", "period", "n_active", "n_reverse",
-                                        "active_per_period", "reverse_per_period", "chaotic",
-                                        "lyapunov", "stick_fraction", "intensity", "status"])
+        summary = pd.DataFrame(columns=SUMMARY_COLUMNS)
         done_vals = np.empty(0)
     return SweepResult(name=name, values=done_vals, params=base, settings=settings, table=table,
                        summary=summary, cancelled=cancelled)

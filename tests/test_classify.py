@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from rattle_core import RattleParams, classify, contact_boundary, excitation, simulate
-from rattle_core.classify import (Classification, detect_period, one_sided_impulse,
+from rattle_core.classify import (REGIME_LETTERS, Classification, classify_arrays,
+                                  classify_batch, detect_period, one_sided_impulse,
                                   one_sided_orbits, period1_limits_harmonic)
 from rattle_core.excitation import TWO_PI
 
@@ -134,6 +135,88 @@ def test_detect_period():
     rng = np.random.default_rng(1)
     assert detect_period(rng.normal(size=200), rng.normal(size=200)) == 0
     assert detect_period(np.ones(3), np.ones(3)) == 0
+
+
+def _window(rng, record, period, n_act, n_rev, stick=0.0, lyap=np.nan, noise=0.0, j=8.0):
+    """A synthetic recorded window: impacts on each flank per period, a section repeating
+    every ``period`` samples (0: random), stick time in periods, exponent."""
+    if period:
+        cyc = rng.normal(size=(2, period)) * 3
+        sx, sv = np.tile(cyc, record // period + 1)[:, :record]
+        sx = sx + noise * rng.normal(size=record)
+    else:
+        sx, sv = rng.normal(size=(2, record)) * 3
+    fl = np.concatenate([np.ones(n_act, np.int8), -np.ones(n_rev, np.int8)])
+    rng.shuffle(fl)
+    # impulses spread over decades, so a different summation order would change the last bits
+    imp = fl * 10.0 ** rng.uniform(-3, 2, len(fl))
+    return imp, fl, sx, sv, stick * TWO_PI, lyap, j
+
+
+def _varied_windows(record):
+    rng = np.random.default_rng(11)
+    P = record
+    tol = 1e-6 * 9.0
+    return [
+        _window(rng, P, 1, 0, 0, stick=P),                      # A
+        _window(rng, P, 1, 0, 0, stick=0.995 * P),              # A at the threshold
+        _window(rng, P, 1, 0, 0, stick=0.98 * P),               # B with no impacts
+        _window(rng, P, 1, 3 * P, 0, stick=0.4 * P),            # B
+        _window(rng, P, 2, 5, 2, stick=1e-9),                   # B, barely sticking
+        _window(rng, P, 1, P, 0),                               # C
+        _window(rng, P, 1, P + 1, 0),                           # C, just inside 2 %
+        _window(rng, P, 1, int(1.03 * P), 0),                   # P: too many impacts for C
+        _window(rng, P, 1, int(1.02 * P), 0),                   # P, at the 2 % edge
+        _window(rng, P, 0, 7 * P, 3 * P, lyap=0.2),             # D, 1000 impacts
+        _window(rng, P, 0, 3 * P, P, stick=0.2 * P, lyap=0.05),  # D with sticking
+        _window(rng, P, 0, 2 * P, P, lyap=1e-3),                # Q: exponent at the threshold
+        _window(rng, P, 0, 2 * P, P, lyap=-0.3),                # Q
+        _window(rng, P, 0, 2 * P, P),                           # Q, no exponent (NaN)
+        _window(rng, P, 1, P, P, lyap=-0.1),                    # E
+        _window(rng, P, 1, P, P - 1, lyap=-0.1),                # E, one reverse impact short
+        _window(rng, P, 3, 2 * P, P, lyap=0.5),                 # P, period 3 (not chaotic)
+        _window(rng, P, 32, 37, 0),                             # P, the longest period
+        _window(rng, P, 1, P, 0, noise=0.4 * tol),              # C, noise under the tolerance
+        _window(rng, P, 1, P, 0, noise=3 * tol),                # noise above it: not period 1
+        _window(rng, P, 5, 129, 257, j=0.5),                    # pairwise splits of the sums
+        _window(rng, P, 1, 0, 1, stick=2 * P),                  # stick time beyond the window
+    ]
+
+
+@pytest.mark.parametrize("record", [100, 41, 3])
+def test_classify_batch_equals_classify_arrays(record):
+    """The compiled batch classification gives exactly the numbers of ``classify_arrays``,
+    field by field, on windows of every regime, sticking, chaotic and borderline ones."""
+    wins = _varied_windows(record)
+    imp, fl, sx, sv, st, ly, j = wins[13]
+    sx = sx.copy()
+    sx[-1] = np.nan  # a NaN in the section never counts as repeating
+    wins.append((imp, fl, sx, sv, st, ly, j))
+    ref = [classify_arrays(imp, fl, sx, sv, record, st, ly, j)
+           for imp, fl, sx, sv, st, ly, j in wins]
+    got = classify_batch(np.array([len(w[0]) for w in wins]), np.concatenate([w[0] for w in wins]),
+                         np.concatenate([w[1] for w in wins]), np.stack([w[2] for w in wins]),
+                         np.stack([w[3] for w in wins]), record, np.array([w[4] for w in wins]),
+                         np.array([w[5] for w in wins]), np.array([w[6] for w in wins]))
+    if record == 100:
+        assert {c.regime for c in ref} == set(REGIME_LETTERS)
+        assert any(c.regime == "D" and c.stick_fraction > 0 for c in ref)
+    for i, c in enumerate(ref):
+        assert REGIME_LETTERS[got["regime"][i]] == c.regime, i
+        assert got["n_active"][i] == np.sum(wins[i][1] == 1)
+        assert got["n_reverse"][i] == np.sum(wins[i][1] == -1)
+        for field, want in c.as_dict().items():
+            if field in ("regime", "impacts_per_period"):
+                continue
+            have = got[field][i]
+            assert have == want or (np.isnan(want) and np.isnan(have)), (i, field, have, want)
+
+
+def test_classify_batch_checks_counts():
+    """Counts that do not add up to the impacts are refused."""
+    with pytest.raises(ValueError, match="counts"):
+        classify_batch(np.array([2]), np.ones(3), np.ones(3, np.int8), np.zeros((1, 8)),
+                       np.zeros((1, 8)), 8, np.zeros(1), np.zeros(1), np.ones(1))
 
 
 def test_classification_label_lists_the_facts():
