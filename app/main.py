@@ -23,7 +23,7 @@ import panel as pn
 if __package__ in (None, ""):  # run as a script by `panel serve app/main.py`
     sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from app import background, views  # noqa: E402
+from app import background, maps_panel, views  # noqa: E402
 from app.dashboard import Dashboard  # noqa: E402
 
 log = logging.getLogger("app")
@@ -67,8 +67,18 @@ def create_app() -> pn.template.BootstrapTemplate:
     return Dashboard().layout
 
 
-def serve(port: int = 5006, address: str = "localhost", show: bool = False, **kwargs):
-    """Start the dashboard server and block (``threaded=True`` returns the server thread)."""
+def serve(port: int = 5006, address: str = "localhost", show: bool = False,
+          scheduler: str | None = None, dask: str | None = None, **kwargs):
+    """Start the dashboard server and block (``threaded=True`` returns the server thread).
+
+    ``scheduler`` (``tcp://host:port``) or ``dask="local"`` become the default of the Maps
+    tab's "Dask scheduler" field in every session; by default maps use this server's cores.
+    """
+    if scheduler and dask:
+        raise ValueError("give scheduler or dask='local', not both")
+    if dask not in (None, "local"):
+        raise ValueError(f"dask = {dask!r}; the only value is 'local'")
+    maps_panel.set_default_scheduler(dask or scheduler or "")
     configure()
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
     log.info("warming up (numba compilation, shipped diagrams)…")
@@ -76,6 +86,8 @@ def serve(port: int = 5006, address: str = "localhost", show: bool = False, **kw
     origins = kwargs.pop("websocket_origin", None) or [f"{address}:{port}", f"localhost:{port}",
                                                        f"127.0.0.1:{port}"]
     log.info("serving Rattle Explorer on http://%s:%d/", address, port)
+    if maps_panel.default_scheduler():
+        log.info("2-D maps run on Dask: %s", maps_panel.default_scheduler())
     return pn.serve(create_app, port=port, address=address, show=show, title="Rattle Explorer",
                     websocket_origin=origins, liveness=True, **kwargs)
 
