@@ -1,0 +1,80 @@
+"""Browser tests of the rattle-sound card: the page's ``<audio>`` element carries the sound.
+
+The WAV the browser holds is read back from the element's ``src`` (a base64 data URL) and
+decoded, so a test passes only if the sound travelled server → websocket → page.
+"""
+from __future__ import annotations
+
+import base64
+import io
+
+import numpy as np
+import pytest
+from scipy.io import wavfile
+
+from rattle_core.sound import DEFAULT_EXCITATION_HZ, DEFAULT_TAIL, PEAK
+from test_ui import box, open_dashboard, wait_box
+
+pytestmark = [pytest.mark.ui, pytest.mark.timeout(300)]
+
+AUDIO = ".sound-audio audio"
+#: A cheap fingerprint of the audio element's data URL, computed in the page.
+SRC_HASH = """(el) => { const s = el.src; let h = s.length;
+  for (let i = 0; i < s.length; i += 97) h = (h * 31 + s.charCodeAt(i)) % 1000000007;
+  return h; }"""
+
+
+def audio_wav(page) -> tuple[int, np.ndarray]:
+    """Sample rate and int16 samples of the WAV held by the page's audio element."""
+    src = page.locator(AUDIO).first.evaluate("el => el.src")
+    head, _, data = src.partition(",")
+    assert head == "data:audio/wav;base64" and data, src[:80]
+    return wavfile.read(io.BytesIO(base64.b64decode(data)))
+
+
+def wait_text(page, selector: str, stale: bool, timeout: float = 20_000) -> None:
+    """Wait until the text of ``selector`` does (or does not) say the sound is stale."""
+    waited, step = 0.0, 100
+    while ("Stale" in " ".join(page.locator(selector).all_inner_texts())) != stale:
+        if waited >= timeout:
+            raise AssertionError(f"{selector} never {'said' if stale else 'stopped saying'} 'Stale'")
+        page.wait_for_timeout(step)
+        waited += step
+
+
+def test_page_holds_the_rattle_sound(page, dashboard_server):
+    """The card's audio element holds a WAV of the trajectory's length at a peak of 0.99."""
+    errors = open_dashboard(page, dashboard_server, "?lam=3.3&h2=0&periods=50")
+    wait_box(page, "h2", 0.0)
+    page.locator(AUDIO).first.wait_for(state="attached", timeout=20_000)
+    rate, data = audio_wav(page)
+    assert rate == 44_100 and data.dtype == np.int16
+    assert data.size == round((50 / DEFAULT_EXCITATION_HZ + DEFAULT_TAIL) * rate)
+    # Panel writes floats as int16(x × 32768): the peak of 0.99 is 32440
+    assert int(np.max(np.abs(data))) == int(PEAK * 32768)
+    assert "Periodic buzz" in page.locator(".sound-hear p").first.inner_text()
+    assert errors == []
+
+
+def test_render_after_a_parameter_change_replaces_the_sound(page, dashboard_server):
+    """Moving Λ marks the sound stale; Render / play loads a new one into the audio element."""
+    errors = open_dashboard(page, dashboard_server, "?lam=3.3&h2=0&periods=50")
+    wait_box(page, "h2", 0.0)
+    audio = page.locator(AUDIO).first
+    audio.wait_for(state="attached", timeout=20_000)
+    before = audio.evaluate(SRC_HASH)
+    b = box(page, "lam")
+    b.fill("2.6")
+    b.press("Enter")
+    wait_box(page, "lam", 2.6)
+    wait_text(page, ".sound-status p", stale=True)
+    assert audio.evaluate(SRC_HASH) == before
+    page.locator(".sound-render button").first.click()
+    page.wait_for_function(f"(el) => ({SRC_HASH})(el) !== {before}", arg=audio.element_handle(),
+                           timeout=20_000)
+    rate, data = audio_wav(page)
+    assert rate == 44_100 and data.size == round((50 / DEFAULT_EXCITATION_HZ + DEFAULT_TAIL) * rate)
+    wait_text(page, ".sound-status p", stale=False)
+    page.wait_for_timeout(1000)
+    assert errors == []
+    assert dashboard_server["log"].tracebacks() == []
