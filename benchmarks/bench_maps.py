@@ -6,6 +6,7 @@ Run: ``.venv/bin/python benchmarks/bench_maps.py [--n 200] [--transient 300] [--
 from __future__ import annotations
 
 import argparse
+import os
 import time
 
 import numpy as np
@@ -26,6 +27,8 @@ def main() -> None:
     kw = dict(transient=args.transient, record=args.record)
     regime_map(base, "lam", lams[:2], "phi2", phis[:2], transient=5, record=5)  # compile
 
+    print(f"load average before the local run: {os.getloadavg()[0]:.2f} "
+          f"({os.cpu_count()} cores, shared with other processes)")
     t = time.perf_counter()
     local = regime_map(base, "lam", lams, "phi2", phis, **kw)
     t_local = time.perf_counter() - t
@@ -39,6 +42,7 @@ def main() -> None:
         # workers load the compiled kernels from numba's on-disk cache once
         regime_map(base, "lam", lams[:2], "phi2", phis[:2], transient=5, record=5,
                    executor=client, chunk_size=2)
+        print(f"load average before the Dask run: {os.getloadavg()[0]:.2f}")
         t = time.perf_counter()
         remote = regime_map(base, "lam", lams, "phi2", phis, executor=client, **kw)
         t_dask = time.perf_counter() - t

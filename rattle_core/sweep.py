@@ -25,6 +25,7 @@ import sys
 import threading
 from typing import TYPE_CHECKING, Any, Callable, Sequence
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -186,8 +187,13 @@ def _run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transie
         xs = np.clip(np.broadcast_to(np.asarray(x0, dtype=np.float64), (nv,)), y0, y0 + j)
     vs0 = np.broadcast_to(np.asarray(v0, dtype=np.float64), (nv,)).copy()
     cap = 8 * record + 64
-    todo = np.arange(nv)
     on_worker = _in_dask_worker()
+    todo = np.arange(nv)
+    if not on_worker:
+        # the parallel kernel hands each thread one contiguous block of values; neighbouring
+        # values cost alike, so dealing them out in turn evens out the threads' shares
+        nt = numba.get_num_threads()
+        todo = np.concatenate([todo[t::nt] for t in range(nt)])
     res = {"counts": np.zeros(nv, np.int64), "status": np.zeros(nv, np.int64),
            "lyap": np.full(nv, np.nan), "stick": np.zeros(nv), "final_x": np.zeros(nv),
            "final_v": np.zeros(nv), "str_x": np.zeros((nv, record)), "str_v": np.zeros((nv, record))}
