@@ -311,9 +311,10 @@ class SoundPanel(FeaturePanel):
         else:
             scale = (f"Dimensionless mode: one forcing period lasts 1/f, f = "
                      f"{self.settings['excitation']:g} Hz.")
+        cost = f" Rendered in {self.render_ms:.0f} ms." if math.isfinite(self.render_ms) else ""
         stale = (" **Stale**: the trajectory changed since this sound was rendered; press "
                  "Render / play." if self.stale and self.signal is not None else "")
-        text = scale + stale
+        text = scale + cost + stale
         if text != self._scale_text:
             self._scale_text = text
             self.status.object = text
@@ -367,8 +368,8 @@ class SoundPanel(FeaturePanel):
         seconds = signal.size / rate
         self.hear.object = what_to_hear(self.dashboard.classification, int(window.impact_t.size),
                                         seconds, freq)
-        self._update_status()
         self.render_ms = 1e3 * (time.perf_counter() - t0)
+        self._update_status()
         return True
 
     def filename(self) -> str:
