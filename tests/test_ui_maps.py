@@ -1,0 +1,57 @@
+"""Browser test of the Maps tab: a small regime map computed in the background reaches the page.
+
+The image data is read back from the page's Bokeh document (the ``map_image`` source), so the
+test passes only if the map travelled worker thread → session → websocket → browser.
+"""
+from __future__ import annotations
+
+import re
+
+import pytest
+from playwright.sync_api import expect
+from test_ui import open_dashboard
+
+pytestmark = [pytest.mark.ui, pytest.mark.timeout(300)]
+
+MAP_READY = """() => {
+  const m = Bokeh.documents[0].get_model_by_name('map_image');
+  return m != null && m.get_length() > 0;
+}"""
+
+MAP_SHAPE = """() => {
+  const m = Bokeh.documents[0].get_model_by_name('map_image');
+  const img = m.get_column('image')[0];
+  const reg = m.get_column('regime')[0];
+  return {size: img.length, rows: reg.length, cols: reg[0].length, letters: [...new Set(reg.flat())]};
+}"""
+
+
+def set_input(page, css: str, value: str) -> None:
+    box = page.locator(f"{css} input").first
+    box.fill(value)
+    box.press("Enter")
+
+
+def test_maps_tab_computes_a_small_map(page, dashboard_server):
+    """Switch to Maps, compute a 12 × 12 map: the image arrives and the legend shows the regimes."""
+    errors = open_dashboard(page, dashboard_server)
+    page.locator(".bk-tab", has_text="Maps").first.click()
+    page.locator(".map-compute button").first.wait_for(timeout=20_000)
+    for css, value in ((".map-x-num", "12"), (".map-y-num", "12"), (".map-transient", "40"),
+                       (".map-record", "20")):
+        set_input(page, css, value)
+    page.wait_for_timeout(500)
+    page.locator(".map-compute button").first.click()
+    page.wait_for_function(MAP_READY, timeout=120_000)
+    shape = page.evaluate(MAP_SHAPE)
+    assert shape["size"] == 144 and shape["rows"] == 12 and shape["cols"] == 12
+    assert set(shape["letters"]) <= {"A", "B", "C", "D", "E", "P", "Q", "error"}
+    entries = page.locator(".map-legend .map-regime")
+    expect(entries).to_have_count(8, timeout=20_000)
+    letters = [entries.nth(i).get_attribute("data-regime") for i in range(8)]
+    assert letters == ["A", "B", "C", "D", "E", "P", "Q", "error"]
+    for i, letter in enumerate(letters[:7]):
+        assert re.match(rf"^\s*{letter}\b", entries.nth(i).inner_text()), entries.nth(i).inner_text()
+    expect(page.locator(".map-status p").first).to_contain_text("12 × 12 = 144 points")
+    assert errors == []
+    assert dashboard_server["log"].tracebacks() == []
