@@ -139,12 +139,10 @@ class UnitsPanel(FeaturePanel):
             self.body, title="Physical units", collapsed=False, sizing_mode="stretch_width",
             css_classes=["units-card"])
         self.sidebar = [self.card]
-        self.hint = pn.pane.Markdown("*Physical units are off (sidebar: Physical units).*",
-                                     css_classes=["units-hint"], margin=(0, 10),
-                                     styles={"color": "#777", "font-size": "12px"})
+        # hidden while the mode is off, so it takes no room above the plots
         self.table = pn.pane.HTML("", css_classes=["units-table"], visible=False,
                                   sizing_mode="stretch_width")
-        self.explorer = [self.hint, self.table]
+        self.explorer = [self.table]
 
     # ----- labels and display ---------------------------------------------------------------
 
@@ -237,7 +235,6 @@ class UnitsPanel(FeaturePanel):
             self.switch.value = on  # its watcher calls back here
             return
         self.body.visible = self.table.visible = on
-        self.hint.visible = not on
         if on:
             self.sync(force=True)
             self.dashboard.physical = self.phys

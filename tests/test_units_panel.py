@@ -39,14 +39,14 @@ def panel(dash):
 
 
 def test_mode_off_by_default_and_on_keeps_the_view(dash):
-    """Off: no physical parameters and only a hint. On: the inputs solve for the same Λ, j, h₂, φ₂."""
+    """Off: no physical parameters and no table. On: the inputs solve for the same Λ, j, h₂, φ₂."""
     from app.units_panel import UnitsPanel
 
     p = next(p for p in dash.panels if isinstance(p, UnitsPanel))
-    assert dash.physical is None and not p.table.visible and p.hint.visible
+    assert dash.physical is None and not p.table.visible and not p.body.visible
     before = dash.params
     p.set_mode(True)
-    assert dash.physical is p.phys and p.table.visible and not p.hint.visible
+    assert dash.physical is p.phys and p.table.visible and p.body.visible
     assert dash.params == before
     q = dash.physical.to_dimensionless()
     assert q.lam == pytest.approx(before.lam, rel=1e-12) and q.j == pytest.approx(before.j, rel=1e-12)
