@@ -680,6 +680,8 @@ class Dashboard:
         self._overlay_key = None
         if self._bif is not None:
             self._set_diagram(self._bif, self._bif_key)
+        else:
+            self._draw_overlays()
         if self.state.bif == "rpm":
             self.bif_fig.yaxis.axis_label = self._bif_y_label("rpm")
 

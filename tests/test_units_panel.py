@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from rattle_core import units
+from rattle_core.classify import contact_boundary
 from rattle_core.units import PhysicalParams
 
 
@@ -199,6 +200,13 @@ def test_rpm_diagram_is_a_lambda_sweep_drawn_against_rpm(dash, panel):
     x, y = dash._bif_points()
     np.testing.assert_allclose(y, d.impulse * units.impulse_scale_from_rpm(phys, x), rtol=1e-12)
     assert "N·s" in dash.bif_fig.yaxis.axis_label
+    # overlays: the one-sided impulses 2πn/Λ(rpm), in N·s; the contact boundary at rpm(Λ_c)
+    curves = dash.bif["sources"]["curves"].data
+    for n, (xs, ys) in enumerate(zip(curves["xs"], curves["ys"]), start=1):
+        np.testing.assert_allclose(ys, 2 * np.pi * n / units.lam_from_rpm(phys, xs)
+                                   * units.impulse_scale_from_rpm(phys, xs), rtol=1e-12)
+    lam_c = contact_boundary(dash.params)
+    assert dash.bif["boundary"].location == pytest.approx(float(units.rpm_from_lam(phys, lam_c)))
     # a click sets the engine speed, and so Λ
     dash.set_from_diagram(2222.04)
     assert panel.phys.rpm == 2222.0
