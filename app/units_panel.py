@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 import panel as pn
 
 from rattle_core import RattleParams, units
+from rattle_core.params import check_range
 from rattle_core.units import PhysicalParams, wrap_deg
 
 from .panel_base import FeaturePanel
@@ -296,8 +297,8 @@ class UnitsPanel(FeaturePanel):
         if name in ("amp1", "amp2"):
             amps = list(p.amplitudes)
             if name == "amp1":
-                if not (math.isfinite(value) and value > 0):
-                    p.replace(amplitudes=(value, *amps[1:]))  # raises with the allowed range
+                rng = units.THETA_RANGE if p.excitation == "displacement" else units.ALPHA_RANGE
+                check_range("amplitudes[0]", value, *rng, lo_open=True)
                 # orders ≥ 3 have no physical input: they keep their ratio to order 1
                 amps[2:] = [a * value / amps[0] for a in amps[2:]]
                 amps[0] = value
