@@ -239,8 +239,9 @@ class Dashboard:
                                sizing_mode="stretch_width"),
                         self.alerts["bif"], self.progress, self.bif_status, self.bif_fig,
                         sizing_mode="stretch_width")
-        explorer = pn.Column(top, *[obj for panel in self.panels for obj in panel.explorer],
-                             self.th_fig, pn.Row(section, bif, sizing_mode="stretch_width"),
+        # the plots stay where the eye lands first; the panels' extras follow them
+        explorer = pn.Column(top, self.th_fig, pn.Row(section, bif, sizing_mode="stretch_width"),
+                             *[obj for panel in self.panels for obj in panel.explorer],
                              self.timing, sizing_mode="stretch_width")
         self.tabs = pn.Tabs(("Explorer", explorer),
                             *[panel.tab for panel in self.panels if panel.tab is not None],

@@ -4,7 +4,7 @@ A feature panel owns its widgets and its work; the dashboard only places what th
 offers and tells it when the trajectory changed:
 
 * ``sidebar``: objects appended to the sidebar, below the export controls;
-* ``explorer``: objects placed in the Explorer tab, under the regime badge;
+* ``explorer``: objects placed in the Explorer tab, below the plots;
 * ``tab``: a ``(title, object)`` pair shown as a tab of its own, or None;
 * :meth:`on_redraw`: called after every good redraw, with ``dashboard.tr``,
   ``dashboard.params``, ``dashboard.state`` and ``dashboard.classification`` current. It runs
