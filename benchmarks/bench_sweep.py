@@ -16,7 +16,7 @@ Prints, after compilation:
    H2/H1 = 0.25), each 300 + 100 periods, through :func:`rattle_core.maps.regime_map`.
    Target: ≤ 30 s.
 
-Usage: ``python benchmarks/bench_sweep.py [--repeat N] [--skip-grid]``.
+Usage: ``python benchmarks/bench_sweep.py [--repeat N] [--skip-grid | --grid-only]``.
 """
 from __future__ import annotations
 
@@ -108,60 +108,64 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=3, help="timed repetitions (best is shown)")
     ap.add_argument("--skip-grid", action="store_true", help="leave out the 2-D map")
+    ap.add_argument("--grid-only", action="store_true", help="only the 2-D map")
     args = ap.parse_args(argv)
+    if args.skip_grid and args.grid_only:
+        ap.error("--skip-grid and --grid-only exclude each other")
 
     threads = numba.get_num_threads()
     print(f"rattle-explorer sweep benchmark: {os.cpu_count()} cores, numba {numba.__version__} "
           f"({threads} threads, layer {numba.config.THREADING_LAYER}); load average before "
           f"the run {os.getloadavg()[0]:.2f} (other processes share the cores)")
-    base = RattleParams(lam=1.0)
-    sweep(base, "lam", np.linspace(0.5, 4, 16), transient=5, record=5)  # compile
-    simulate(base, periods=5)
+    if not args.grid_only:
+        base = RattleParams(lam=1.0)
+        sweep(base, "lam", np.linspace(0.5, 4, 16), transient=5, record=5)  # compile
+        simulate(base, periods=5)
 
-    def fig2():
-        return sweep(base, "lam", FIG2_VALUES, transient=TRANSIENT, record=RECORD)
+        def fig2():
+            return sweep(base, "lam", FIG2_VALUES, transient=TRANSIENT, record=RECORD)
 
-    n_periods = len(FIG2_VALUES) * (TRANSIENT + RECORD)
-    print(f"\nFigure 2 sweep: {len(FIG2_VALUES)} values × ({TRANSIENT} + {RECORD}) periods "
-          f"= {n_periods:,} periods")
-    t_all, res = timed(fig2, args.repeat)
-    numba.set_num_threads(1)
-    try:
-        t_one, res1 = timed(fig2, max(1, args.repeat - 1))
-    finally:
-        numba.set_num_threads(threads)
-    assert np.array_equal(res.table["impulse"].to_numpy(), res1.table["impulse"].to_numpy())
-    line(f"wall time, {threads} threads", f"{t_all:.3f} s", f"target ≤ 3 s: "
-         f"{'met' if t_all <= 3 else 'MISSED'}")
-    line("wall time, 1 thread", f"{t_one:.3f} s")
-    line("speed-up over one thread", f"{t_one / t_all:.2f} ×")
-    line("throughput", f"{n_periods / t_all / 1e6:.2f} M periods/s")
-    line("impacts recorded", f"{len(res.table):,}")
-    regimes = res.summary["regime"].value_counts().to_dict()
-    print("  regimes: " + ", ".join(f"{k} {v}" for k, v in sorted(regimes.items())))
+        n_periods = len(FIG2_VALUES) * (TRANSIENT + RECORD)
+        print(f"\nFigure 2 sweep: {len(FIG2_VALUES)} values × ({TRANSIENT} + {RECORD}) periods "
+              f"= {n_periods:,} periods")
+        t_all, res = timed(fig2, args.repeat)
+        numba.set_num_threads(1)
+        try:
+            t_one, res1 = timed(fig2, max(1, args.repeat - 1))
+        finally:
+            numba.set_num_threads(threads)
+        assert np.array_equal(res.table["impulse"].to_numpy(), res1.table["impulse"].to_numpy())
+        line(f"wall time, {threads} threads", f"{t_all:.3f} s", f"target ≤ 3 s: "
+             f"{'met' if t_all <= 3 else 'MISSED'}")
+        line("wall time, 1 thread", f"{t_one:.3f} s")
+        line("speed-up over one thread", f"{t_one / t_all:.2f} ×")
+        line("throughput", f"{n_periods / t_all / 1e6:.2f} M periods/s")
+        line("impacts recorded", f"{len(res.table):,}")
+        regimes = res.summary["regime"].value_counts().to_dict()
+        print("  regimes: " + ", ".join(f"{k} {v}" for k, v in sorted(regimes.items())))
 
-    # solve_ivp baseline on a subsample, checked against the exact solver
-    sub_lams = (2.0, 2.5, 3.0)  # regime E from the first period on: no chatter
-    sub_periods = 30
-    t0 = time.perf_counter()
-    worst = 0.0
-    for lam in sub_lams:
-        p = base.replace(lam=lam)
-        x0 = float(excitation(0.0, p.h, p.phi)) + 0.5 * p.j
-        ts, imp = ivp_run(p, sub_periods, x0, 0.0)
-        tr = simulate(p, periods=sub_periods)
-        m = min(len(imp), len(tr.impact_impulse), 20)
-        worst = max(worst, float(np.max(np.abs(imp[:m] - tr.impact_impulse[:m]))))
-    t_ivp = time.perf_counter() - t0
-    per_period = t_ivp / (len(sub_lams) * sub_periods)
-    t_ivp_full = per_period * n_periods
-    print(f"\nsolve_ivp baseline (DOP853, rtol = atol = 1e-10, max_step = 0.1, events): "
-          f"Λ = {sub_lams}, {sub_periods} periods each")
-    line("measured", f"{t_ivp:.2f} s")
-    line("per forcing period", f"{per_period * 1e3:.2f} ms")
-    line("largest impulse difference to the exact solver", f"{worst:.1e}")
-    line("extrapolated to the Figure 2 sweep", f"{t_ivp_full:,.0f} s")
-    line("ratio baseline / rattle_core (all threads)", f"{t_ivp_full / t_all:,.0f} ×")
+        # solve_ivp baseline on a subsample, checked against the exact solver
+        sub_lams = (2.0, 2.5, 3.0)  # regime E from the first period on: no chatter
+        sub_periods = 30
+        t0 = time.perf_counter()
+        worst = 0.0
+        for lam in sub_lams:
+            p = base.replace(lam=lam)
+            x0 = float(excitation(0.0, p.h, p.phi)) + 0.5 * p.j
+            ts, imp = ivp_run(p, sub_periods, x0, 0.0)
+            tr = simulate(p, periods=sub_periods)
+            m = min(len(imp), len(tr.impact_impulse), 20)
+            worst = max(worst, float(np.max(np.abs(imp[:m] - tr.impact_impulse[:m]))))
+        t_ivp = time.perf_counter() - t0
+        per_period = t_ivp / (len(sub_lams) * sub_periods)
+        t_ivp_full = per_period * n_periods
+        print(f"\nsolve_ivp baseline (DOP853, rtol = atol = 1e-10, max_step = 0.1, events): "
+              f"Λ = {sub_lams}, {sub_periods} periods each")
+        line("measured", f"{t_ivp:.2f} s")
+        line("per forcing period", f"{per_period * 1e3:.2f} ms")
+        line("largest impulse difference to the exact solver", f"{worst:.1e}")
+        line("extrapolated to the Figure 2 sweep", f"{t_ivp_full:,.0f} s")
+        line("ratio baseline / rattle_core (all threads)", f"{t_ivp_full / t_all:,.0f} ×")
 
     if not args.skip_grid:
         from rattle_core.maps import regime_map
@@ -172,6 +176,7 @@ def main(argv=None) -> int:
         n_grid = GRID_N * GRID_N * (GRID_TRANSIENT + GRID_RECORD)
         print(f"\n2-D regime map: {GRID_N} × {GRID_N} (Λ × φ2) × ({GRID_TRANSIENT} + "
               f"{GRID_RECORD}) periods = {n_grid:,} periods")
+        print(f"  load average before the map: {os.getloadavg()[0]:.2f}")
         t_grid, m = timed(lambda: regime_map(base2, "lam", lam_v, "phi2", phi_v,
                                              transient=GRID_TRANSIENT, record=GRID_RECORD), 1)
         line(f"wall time, {threads} threads", f"{t_grid:.2f} s",
