@@ -23,6 +23,7 @@ only mark the map as computed for other parameters: a map is recomputed only on 
 from __future__ import annotations
 
 import atexit
+import contextlib
 import functools
 import io
 import logging
@@ -193,9 +194,11 @@ class MapJob:
         if executor is not None:
             kwargs["executor"] = executor
         try:
-            result = maps.run_map(req["params"], req["phys"], req["x_name"], req["x_values"],
-                                  req["y_name"], req["y_values"], use_cache=True,
-                                  progress=self._progress, cancel=self._cancel.is_set, **kwargs)
+            # the shared clients are nobody's default; Dask's as_completed needs a current one
+            with (executor.as_current() if executor is not None else contextlib.nullcontext()):
+                result = maps.run_map(req["params"], req["phys"], req["x_name"], req["x_values"],
+                                      req["y_name"], req["y_values"], use_cache=True,
+                                      progress=self._progress, cancel=self._cancel.is_set, **kwargs)
         except Exception as exc:  # reported to its own session only, as a message
             if not self.cancelled:
                 log.warning("map failed: %s: %s", type(exc).__name__, exc)

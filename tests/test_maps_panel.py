@@ -240,3 +240,23 @@ def test_serve_sets_the_scheduler_default(monkeypatch):
             app.main.serve(port=5999, scheduler="tcp://h:1", dask="local")
     finally:
         mp.set_default_scheduler("")
+
+
+def test_local_dask_cluster_gives_the_same_map(panel):
+    """Scheduler 'local' runs the map on the server's shared 2-worker LocalCluster, same values."""
+    pytest.importorskip("dask.distributed")
+    import app.maps_panel as mp
+    small(panel, 5, 4)
+    panel.compute_now()
+    local = {k: v.copy() for k, v in panel.result.fields.items()}
+    import rattle_core.cache as cache
+    for f in cache.cache_dir().glob("map-*.npz"):  # computed again, this time on Dask
+        f.unlink()
+    panel.scheduler.value = "local"
+    panel.compute_now()
+    assert visible_messages(panel) == {}, visible_messages(panel)
+    assert "computed on Dask (local)" in panel.status.object
+    for k, v in local.items():
+        np.testing.assert_array_equal(panel.result.fields[k], v)
+    assert mp.dask_client("local") is mp.dask_client("local")
+    assert len(mp._cluster.workers) == 2
