@@ -280,9 +280,9 @@ class MapsPanel(FeaturePanel):
 
     def _build_widgets(self) -> None:
         self.kind = pn.widgets.RadioButtonGroup(
-            options={"Regime / intensity over two parameters": "regime",
-                     "Basins of attraction over (x₀, ẋ₀)": "basin"},
-            value="regime", css_classes=["map-kind"], sizing_mode="stretch_width")
+            options={"Regimes over two parameters": "regime",
+                     "Basins over (x₀, ẋ₀)": "basin"},
+            value="regime", css_classes=["map-kind"], width=400)
         opts = self._axis_options(self._phys_mode)
         self.x_axis = pn.widgets.Select(label="x axis", options=opts, value="lam", width=120,
                                         css_classes=["map-x-axis"])
@@ -313,7 +313,7 @@ class MapsPanel(FeaturePanel):
         self.status = pn.pane.Markdown("No map yet: choose the axes and press Compute.",
                                        css_classes=["map-status"], margin=(0, 5),
                                        sizing_mode="stretch_width")
-        self.legend = pn.pane.HTML("", css_classes=["map-legend"], width=230)
+        self.legend = pn.pane.HTML("", css_classes=["map-legend"], width=400)
         self.download = pn.widgets.FileDownload(callback=self._csv, filename="map.csv",
                                                 label="Map as CSV", color="success",
                                                 disabled=True, css_classes=["map-download"])
@@ -367,9 +367,9 @@ class MapsPanel(FeaturePanel):
             pn.Row(self.compute_button, self.cancel_button), self.alerts["run"],
             self.progress, self.status,
             self.scheduler, self.alerts["scheduler"],
-            self.download, width=420)
-        return pn.Row(controls, pn.Column(self.field, self.fig), self.legend,
-                      sizing_mode="stretch_width")
+            self.download, self.legend, width=420)
+        # two columns fit beside the sidebar on a 1400-px screen; the legend sits under the controls
+        return pn.Row(controls, pn.Column(self.field, self.fig), sizing_mode="stretch_width")
 
     @staticmethod
     def _axis_options(physical: bool) -> dict[str, str]:

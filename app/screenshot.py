@@ -1,10 +1,12 @@
 """Save a screenshot of the served dashboard (the README's picture, ``assets/dashboard.png``).
 
     .venv/bin/python -m app.screenshot [--out assets/dashboard.png] [--query "?lam=3.3"]
+    .venv/bin/python -m app.screenshot --maps --out assets/maps.png   # the Maps tab, computed
 
 Serves the app on a free local port, opens it in headless Chromium (Debian's ``chromium``;
 Playwright's own browsers cannot be downloaded here), waits until the time history and the
-bifurcation diagram are drawn, and writes the PNG.
+bifurcation diagram are drawn, and writes the PNG. With ``--maps`` it opens the Maps tab,
+computes the default regime map (Λ × φ₂) and waits for its image first.
 """
 from __future__ import annotations
 
@@ -27,11 +29,17 @@ READY = """() => {
   return th != null && th.get_length() > 0 && bif != null && bif.get_length() > 0;
 }"""
 
+MAP_READY = """() => {
+  const m = Bokeh.documents[0].get_model_by_name('map_image');
+  return m != null && m.get_length() > 0;
+}"""
+
 
 def main() -> int:
     ap = argparse.ArgumentParser(description="Screenshot the dashboard.")
     ap.add_argument("--out", default=str(Path(__file__).resolve().parent.parent / "assets" / "dashboard.png"))
     ap.add_argument("--query", default="", help="URL query, e.g. '?lam=3.3&phi2=180'")
+    ap.add_argument("--maps", action="store_true", help="screenshot the Maps tab with a computed map")
     ap.add_argument("--chromium", default=shutil.which("chromium") or "/usr/bin/chromium")
     args = ap.parse_args()
 
@@ -58,6 +66,10 @@ def main() -> int:
             page = browser.new_page(viewport={"width": 1500, "height": 1020})
             page.goto(f"http://localhost:{port}/{args.query}")
             page.wait_for_function(READY, timeout=120_000)
+            if args.maps:
+                page.locator(".bk-tab", has_text="Maps").first.click()
+                page.locator(".map-compute button").first.click()
+                page.wait_for_function(MAP_READY, timeout=300_000)
             page.wait_for_timeout(1500)  # let the last renders and the badge settle
             os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
             page.screenshot(path=args.out, full_page=True)
