@@ -15,7 +15,9 @@
 
 The grid is flattened into per-point parameter arrays and run in chunks through the sweep
 kernel: in parallel on local cores, or on a Dask cluster when ``executor`` is a
-``dask.distributed.Client`` (results are identical, point for point).
+``dask.distributed.Client`` (results are identical, point for point).  Each chunk is classified
+where it runs and reduced to what the map keeps of a point (its fields and, for basins, its
+attractor fingerprint), so a Dask task sends back a few numbers per point, not its impacts.
 """
 from __future__ import annotations
 
@@ -24,12 +26,11 @@ import math
 from typing import Any, Callable
 
 import numpy as np
-import pandas as pd
 
 from .classify import MAX_PERIOD, detect_period
 from .excitation import excitation
 from .params import RattleParams, check_range, iter_names, parse_name
-from .sweep import SCHEMA_VERSION, _run_chunk, _summarise
+from .sweep import REGIME_ORDER, SCHEMA_VERSION, _run_chunk, _summary_arrays
 from .trajectory import MAX_PERIODS, SOLVER_VERSION, _check_int
 
 #: Regime letters and their integer codes in map arrays.
@@ -90,62 +91,90 @@ def _check_size(nx: int, ny: int, transient: int, record: int) -> tuple[int, int
     return transient, record
 
 
+#: Per-point fields of a regime map besides ``regime``, as floats (NaN where not run).
+_FLOAT_FIELDS = ("period", "lyapunov", "active_per_period", "reverse_per_period",
+                 "stick_fraction", "intensity")
+# the summary's regime codes (index into REGIME_ORDER) as codes of REGIME_CODES
+_MAP_CODE = np.array([REGIME_CODES[r] for r in REGIME_ORDER], dtype=np.int8)
+
+
+def _map_chunk(base: RattleParams, columns: dict, rows: np.ndarray, transient: int,
+               record: int, x0: np.ndarray | float | None, v0: np.ndarray | float,
+               decimals: int | None = None) -> dict:
+    """Run one chunk of grid points and reduce it to what a map keeps of each point.
+
+    Returns ``rows`` (the points' flat indices), ``regime`` (codes of :data:`REGIME_CODES`),
+    the :data:`_FLOAT_FIELDS` and, when ``decimals`` is given (basins), ``fingerprint``: each
+    point's attractor fingerprint.  On a Dask cluster this is the task itself, so a few numbers
+    per point travel back instead of every impact and stroboscopic sample.
+    """
+    chunk = _run_chunk(base, columns, rows, transient, record, x0, v0)
+    cl = _summary_arrays(chunk, record)
+    out = {"rows": np.asarray(rows, dtype=np.int64), "regime": _MAP_CODE[cl["regime_code"]]}
+    for k in _FLOAT_FIELDS:
+        out[k] = np.asarray(cl[k], dtype=np.float64)
+    if decimals is not None:
+        out["fingerprint"] = [
+            _fingerprint(sx, sv, detect_period(sx, sv, base.j), REGIME_ORDER[code], decimals)
+            for sx, sv, code in zip(chunk["str_x"], chunk["str_v"], cl["regime_code"])]
+    return out
+
+
 def _run_grid(base: RattleParams, columns: dict, x0: np.ndarray | float | None,
               v0: np.ndarray | float, transient: int, record: int, progress, cancel,
-              executor, chunk_size: int | None) -> tuple[list, bool]:
+              executor, chunk_size: int | None, decimals: int | None = None
+              ) -> tuple[list, bool]:
+    """Run the grid in chunks (:func:`_map_chunk`); returns the chunks done, in grid order.
+
+    ``cancel`` is polled and ``progress`` called each time a chunk is done; once cancelled,
+    the chunks already done are kept, and on Dask the others are cancelled.
+    """
     n = len(next(iter(columns.values())))
     if chunk_size is None:
         chunk_size = max(64, math.ceil(n / 40))
+    chunk_size = _check_int("chunk_size", chunk_size, 1, MAX_GRID)
     idx = np.arange(n, dtype=np.float64)
 
     def part(a, s):
         return a[s:s + chunk_size] if isinstance(a, np.ndarray) else a
 
-    starts = list(range(0, n, chunk_size))
-    args = [({k: v[s:s + chunk_size] for k, v in columns.items()}, idx[s:s + chunk_size],
-             part(x0, s), part(v0, s)) for s in starts]
-    results: list = []
-    cancelled = False
+    args = [(base, {k: v[s:s + chunk_size] for k, v in columns.items()}, idx[s:s + chunk_size],
+             transient, record, part(x0, s), part(v0, s), decimals) for s in range(0, n, chunk_size)]
+    parts: list = []
+    done = 0
     if executor is not None:
         from dask.distributed import as_completed
-        futures = [executor.submit(_run_chunk, base, cols, rows, transient, record, xs, vs,
-                                   pure=False) for cols, rows, xs, vs in args]
-        done = 0
-        for _ in as_completed(futures):
-            if cancel is not None and cancel():
+        futures = [executor.submit(_map_chunk, *a, pure=False) for a in args]
+        order = {f.key: i for i, f in enumerate(futures)}
+        found: dict = {}
+        for fut, res in as_completed(futures, with_results=True):
+            found[order[fut.key]] = res
+            done += len(res["rows"])
+            if progress is not None:
+                progress(done, n)
+            if cancel is not None and cancel() and len(found) < len(futures):
                 for f in futures:
                     f.cancel()
-                return [], True
-            done += 1
-            if progress is not None:
-                progress(min(done * chunk_size, n), n)
-        results = [f.result() for f in futures]
-    else:
-        for cols, rows, xs, vs in args:
-            if cancel is not None and cancel():
-                cancelled = True
-                break
-            results.append(_run_chunk(base, cols, rows, transient, record, xs, vs))
-            if progress is not None:
-                progress(min(int(rows[-1]) + 1, n), n)
-    return results, cancelled
+                return [found[i] for i in sorted(found)], True
+        return [found[i] for i in sorted(found)], False
+    for a in args:
+        if cancel is not None and cancel():
+            return parts, True
+        parts.append(_map_chunk(*a))
+        done += len(parts[-1]["rows"])
+        if progress is not None:
+            progress(done, n)
+    return parts, False
 
 
-def _fields(results: list, record: int, n: int) -> tuple[dict, pd.DataFrame]:
-    keys = ["period", "lyapunov", "active_per_period", "reverse_per_period", "stick_fraction",
-            "intensity"]
-    out = {k: np.full(n, np.nan) for k in keys}
+def _fields(parts: list, n: int) -> dict:
+    """The flat per-point fields of a map from its chunks; points not run are NaN or -1."""
+    out = {k: np.full(n, np.nan) for k in _FLOAT_FIELDS}
     out["regime"] = np.full(n, -1, dtype=np.int8)
-    frames = []
-    for c in results:
-        summ = _summarise(c, record)
-        rows = c["values"].astype(np.int64)
-        for k in keys:
-            out[k][rows] = summ[k].to_numpy(dtype=np.float64)
-        out["regime"][rows] = summ["regime"].map(REGIME_CODES).to_numpy(dtype=np.int8)
-        summ["row"] = rows
-        frames.append(summ)
-    return out, (pd.concat(frames, ignore_index=True) if frames else pd.DataFrame())
+    for p in parts:
+        for k in out:
+            out[k][p["rows"]] = p[k]
+    return out
 
 
 def regime_map(base: RattleParams, x_name: str, x_values, y_name: str, y_values,
@@ -183,7 +212,7 @@ def regime_map(base: RattleParams, x_name: str, x_values, y_name: str, y_values,
     columns = {x_name: gx.ravel(), y_name: gy.ravel()}
     results, cancelled = _run_grid(base, columns, x0, v0, transient, record, progress, cancel,
                                    executor, chunk_size)
-    flat, _ = _fields(results, record, gx.size)
+    flat = _fields(results, gx.size)
     fields = {k: v.reshape(gx.shape) for k, v in flat.items()}
     settings = {"transient": transient, "record": record, "x0": x0, "v0": v0,
                 "solver_version": SOLVER_VERSION, "schema_version": SCHEMA_VERSION}
@@ -227,17 +256,13 @@ def basin_map(params: RattleParams, x0_values, v0_values, transient: int = 300,
     n = gx.size
     columns = {"lam": np.full(n, params.lam)}
     results, cancelled = _run_grid(params, columns, np.clip(gx.ravel(), lo, hi), gv.ravel(),
-                                   transient, record, progress, cancel, executor, chunk_size)
-    flat, summ = _fields(results, record, n)
+                                   transient, record, progress, cancel, executor, chunk_size,
+                                   decimals)
+    flat = _fields(results, n)
     labels = np.full(n, -1, dtype=np.int32)
     keys: dict = {}
-    codes = {c: k for k, c in REGIME_CODES.items()}
-    for c in results:
-        rows = c["values"].astype(np.int64)
-        for a, row in enumerate(rows):
-            reg = codes[int(flat["regime"][row])]
-            per = detect_period(c["str_x"][a], c["str_v"][a], params.j)
-            fp = _fingerprint(c["str_x"][a], c["str_v"][a], per, reg, decimals)
+    for part in results:
+        for row, fp in zip(part["rows"], part["fingerprint"]):
             labels[row] = keys.setdefault(fp, len(keys))
     counts = np.bincount(labels[labels >= 0], minlength=len(keys))
     order = np.argsort(-counts, kind="stable")

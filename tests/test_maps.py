@@ -1,4 +1,6 @@
 """2-D regime maps and basins of attraction, locally and on a Dask cluster."""
+import pickle
+
 import numpy as np
 import pytest
 
@@ -80,19 +82,112 @@ def test_cancel_and_progress():
     assert np.sum(m.fields["regime"] >= 0) == 16
 
 
-def test_dask_local_cluster_equals_local():
-    """A map run on a 2-worker Dask LocalCluster equals the local run, value for value."""
+@pytest.fixture(scope="module")
+def dask_client():
+    """A 2-worker Dask LocalCluster (one thread per worker, separate processes)."""
     distributed = pytest.importorskip("dask.distributed")
-    lams = np.linspace(0.8, 3.5, 6)
-    phis = np.array([0.0, -135.0, 180.0])
-    local = regime_map(BASE, "lam", lams, "phi2", phis, transient=200, record=60, chunk_size=5)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster, \
             distributed.Client(cluster) as client:
-        remote = regime_map(BASE, "lam", lams, "phi2", phis, transient=200, record=60,
-                            chunk_size=5, executor=client)
+        yield client
+
+
+def test_dask_local_cluster_equals_local(dask_client):
+    """A map run on a 2-worker Dask LocalCluster equals the local run, value for value."""
+    lams = np.linspace(0.8, 3.5, 6)
+    phis = np.array([0.0, -135.0, 180.0])
+    local = regime_map(BASE, "lam", lams, "phi2", phis, transient=200, record=60, chunk_size=5)
+    remote = regime_map(BASE, "lam", lams, "phi2", phis, transient=200, record=60,
+                        chunk_size=5, executor=dask_client)
     for k in local.fields:
         np.testing.assert_array_equal(local.fields[k], remote.fields[k])
+
+
+def _full_results(params, columns, x0, v0, transient, record, decimals=4):
+    """Per-point fields and attractor fingerprints from one full chunk result (every impact
+    and stroboscopic sample), classified afterwards: how maps were built from whole results."""
+    from rattle_core.classify import detect_period
+    from rattle_core.maps import _FLOAT_FIELDS, _fingerprint
+    from rattle_core.sweep import _run_chunk, _summarise
+    n = len(next(iter(columns.values())))
+    chunk = _run_chunk(params, columns, np.arange(n, dtype=np.float64), transient, record, x0, v0)
+    summ = _summarise(chunk, record)
+    fields = {k: summ[k].to_numpy(dtype=np.float64) for k in _FLOAT_FIELDS}
+    fields["regime"] = summ["regime"].map(REGIME_CODES).to_numpy(dtype=np.int8)
+    fps = []
+    for sx, sv, reg in zip(chunk["str_x"], chunk["str_v"], summ["regime"]):
+        fps.append(_fingerprint(sx, sv, detect_period(sx, sv, params.j), reg, decimals))
+    return fields, fps
+
+
+@pytest.mark.parametrize("where", ["local", "dask"])
+def test_summarised_chunks_equal_full_results(where, request):
+    """Maps built from per-point summaries equal maps built from every impact, locally and on
+    Dask: the regime fields value for value, and the basins' attractors fingerprint for
+    fingerprint (one attractor per distinct fingerprint, each point on its own)."""
+    executor = request.getfixturevalue("dask_client") if where == "dask" else None
+    lams = np.array([0.8, 1.16, 2.0, 3.3, 3.6])
+    phis = np.array([0.0, 45.0, -135.0, 180.0])
+    m = regime_map(BASE, "lam", lams, "phi2", phis, transient=200, record=60, chunk_size=7,
+                   executor=executor)
+    gx, gy = np.meshgrid(lams, phis)
+    ref, _ = _full_results(BASE, {"lam": gx.ravel(), "phi2": gy.ravel()}, None, 0.0, 200, 60)
+    assert set(m.fields) == set(ref)
+    for k in ref:
+        np.testing.assert_array_equal(m.fields[k].ravel(), ref[k])
+
+    p = RattleParams(lam=1.16)
+    xs, vs = np.linspace(1.0, 9.0, 8), np.linspace(-3.0, 3.0, 6)
+    bm = basin_map(p, xs, vs, transient=300, chunk_size=7, executor=executor)
+    bx, bv = np.meshgrid(xs, vs)
+    ref, fps = _full_results(p, {"lam": np.full(bx.size, p.lam)}, bx.ravel(), bv.ravel(), 300,
+                             bm.settings["record"])
+    for k in ref:
+        np.testing.assert_array_equal(bm.fields[k].ravel(), ref[k])
+    labels = bm.fields["attractor"].ravel()
+    assert len(bm.attractors) == len(set(fps)) >= 2
+    for fp, lab in zip(fps, labels):
+        a = bm.attractors[lab]
+        assert (a["regime"], a["period"], a["section_point"]) == (fp[0], *(fp[1:2] or (0,)),
+                                                                 fp[2:])
+    counts = np.bincount(labels, minlength=len(bm.attractors))
+    assert [a["share"] for a in bm.attractors] == list(counts / labels.size)
+
+
+def test_map_tasks_return_per_point_summaries_only():
+    """A map task sends back a few numbers per point, not the impacts and strobe samples."""
+    from rattle_core.maps import _map_chunk
+    from rattle_core.sweep import _run_chunk
+    n = 48
+    cols = {"lam": np.linspace(1.5, 3.5, n), "phi2": np.linspace(0.0, 180.0, n)}
+    rows = np.arange(n, dtype=np.float64)
+    part = _map_chunk(BASE, cols, rows, 100, 200, None, 0.0)
+    full = _run_chunk(BASE, cols, rows, 100, 200, None, 0.0)
+    # row index, regime code and six float fields per point, plus pickling overhead
+    assert len(pickle.dumps(part)) < n * (8 + 1 + 6 * 8) + 2000
+    assert len(pickle.dumps(full)) > 10 * len(pickle.dumps(part))
+    bpart = _map_chunk(RattleParams(lam=1.16), {"lam": np.full(n, 1.16)}, rows, 100, 200,
+                       np.linspace(1.0, 9.0, n), 0.0, decimals=4)
+    assert len(bpart["fingerprint"]) == n and all(isinstance(f, tuple) for f in bpart["fingerprint"])
+
+
+def test_dask_progress_and_cancel_between_chunks(dask_client):
+    """On Dask too, progress comes chunk by chunk, and cancelling keeps the chunks done."""
+    kw = dict(transient=20, record=10, chunk_size=16)
+    lams, phis = np.linspace(1, 3, 8), np.linspace(0, 90, 8)
+    seen = []
+    full = regime_map(BASE, "lam", lams, "phi2", phis, executor=dask_client,
+                      progress=lambda d, n: seen.append((d, n)), **kw)
+    assert [d for d, _ in seen] == [16, 32, 48, 64] and {n for _, n in seen} == {64}
+    m = regime_map(BASE, "lam", lams, "phi2", phis, executor=dask_client, cancel=lambda: True,
+                   **kw)
+    assert m.cancelled
+    done = m.fields["regime"] >= 0
+    assert done.sum() == 16
+    for k in full.fields:
+        np.testing.assert_array_equal(m.fields[k][done], full.fields[k][done])
+        if k != "regime":
+            assert np.all(np.isnan(m.fields[k][~done]))
 
 
 def test_maps_are_cached(tmp_path, monkeypatch):
