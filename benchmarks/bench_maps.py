@@ -1,7 +1,8 @@
 """Benchmark: a 200 × 200 (Λ × φ2) regime map, local cores against a 2-worker Dask LocalCluster.
 
 Prints both wall times and the Dask/local ratio (target: Dask within 30% of local at this size),
-and the CPU time each run consumed (this process, plus the workers' processes for Dask).  The
+the CPU time each run consumed (this process, plus the workers' processes for Dask), and the
+bytes a map task sends back (its per-point summary) beside the chunk's full per-impact result.  The
 cores are shared, so wall times move with the load average printed beside them; CPU time does
 not, and CPU time / cores is the wall time the run would take on otherwise idle cores.
 Run: ``.venv/bin/python benchmarks/bench_maps.py [--n 200] [--transient 300] [--record 100]``.
@@ -9,13 +10,16 @@ Run: ``.venv/bin/python benchmarks/bench_maps.py [--n 200] [--transient 300] [--
 from __future__ import annotations
 
 import argparse
+import math
 import os
+import pickle
 import time
 
 import numpy as np
 
 from rattle_core import RattleParams
-from rattle_core.maps import regime_map
+from rattle_core.maps import _map_chunk, regime_map
+from rattle_core.sweep import _run_chunk
 
 
 def main() -> None:
@@ -66,6 +70,19 @@ def main() -> None:
     print(f"          CPU {c_dask:.1f} s (workers {c_workers:.1f} s, client and scheduler "
           f"{c_main:.1f} s); on {cores} idle cores about {c_dask / cores:.1f} s, "
           f"CPU ratio dask/local = {c_dask / c_local:.2f}")
+
+    # the first chunk of the map, as a task runs it: what it returns, against the full result
+    n = args.n * args.n
+    size = max(64, math.ceil(n / 40))
+    gx, gy = np.meshgrid(lams, phis)
+    cols = {"lam": gx.ravel()[:size], "phi2": gy.ravel()[:size]}
+    rows = np.arange(size, dtype=np.float64)
+    summary = len(pickle.dumps(_map_chunk(base, cols, rows, args.transient, args.record, None, 0.0)))
+    full = len(pickle.dumps(_run_chunk(base, cols, rows, args.transient, args.record, None, 0.0)))
+    scale = n / size
+    print(f"task results (first chunk, {size} points, pickled): {summary / size:.0f} bytes per "
+          f"point, about {summary * scale / 1e6:.2f} MB for the map; the full per-impact result "
+          f"would be {full / size:.0f} bytes per point, about {full * scale / 1e6:.0f} MB")
 
 
 if __name__ == "__main__":
