@@ -18,6 +18,7 @@ import logging
 import math
 import re
 import time
+import urllib.parse
 from typing import Any, Callable
 
 import numpy as np
@@ -64,7 +65,7 @@ def guarded(method: Callable) -> Callable:
 class Dashboard:
     """Everything one browser session sees; build with :func:`app.main.create_app`."""
 
-    def __init__(self, sync_url: bool = True):
+    def __init__(self, sync_url: bool = True, location: Any = None):
         self.doc = pn.state.curdoc
         self.state = DashboardState()
         self.tr = None
@@ -83,6 +84,10 @@ class Dashboard:
         self.last_update_ms = math.nan
         # the physical-units panel sets this to its PhysicalParams while its mode is on
         self.physical: units.PhysicalParams | None = None
+        # the page's URL (None without one); the physical-units keys last written to it
+        self._location = (location if location is not None
+                          else pn.state.location if sync_url else None)
+        self._units_query: dict[str, str] | None = {}
 
         self._build_widgets()
         self._build_views()
@@ -90,8 +95,8 @@ class Dashboard:
         self.panels = [units_panel.UnitsPanel(self), sound_panel.SoundPanel(self),
                        maps_panel.MapsPanel(self)]
         url_errors: dict[str, str] = {}
-        if sync_url and pn.state.location is not None:
-            url_errors = self._sync_url(pn.state.location)
+        if self._location is not None:
+            url_errors = self._sync_url(self._location)
         if "global" in url_errors:
             self.show_error(None, f"URL: {url_errors['global']}")
         self.refresh()
@@ -273,9 +278,33 @@ class Dashboard:
 
         location.sync(self.state, URL_KEYS, on_error=on_error)
         for key in location.query_params:
-            if key not in URL_KEYS:
+            if key not in URL_KEYS and key not in units_panel.URL_KEYS:
                 errors.setdefault("global", f"unknown URL parameter {key!r} ignored")
+        # the physical-units mode after the state, so its inputs win over Λ, j, h₂, φ₂
+        raw = dict(urllib.parse.parse_qsl(location.search[1:], keep_blank_values=True))
+        panel = self._units_panel()
+        if panel is not None:
+            rejected = panel.restore_url(raw)
+            if "units" in rejected:
+                errors.setdefault("global", rejected["units"])
+        if any(key in raw for key in units_panel.URL_KEYS):
+            self._units_query = None  # correct the link to the inputs shown
+        self.write_units_url()
         return errors
+
+    def write_units_url(self) -> None:
+        """Put the physical-units mode and its inputs in the URL while it is on, and only then."""
+        location, panel = self._location, self._units_panel()
+        if location is None or panel is None:
+            return
+        want = panel.url_values()
+        if want == self._units_query:
+            return
+        self._units_query = want
+        query = {k: v for k, v in urllib.parse.parse_qsl(location.search[1:], keep_blank_values=True)
+                 if k not in units_panel.URL_KEYS}
+        query.update(want)
+        location.search = "?" + urllib.parse.urlencode(query) if query else ""
 
     def _url_value(self, name: str) -> str:
         """The state's value of ``name`` as the URL carries it."""
@@ -604,6 +633,7 @@ class Dashboard:
                 self._syncing = False
         if on and self.state.bif == "rpm" and self.tr is not None:
             self._update_bifurcation()
+        self.write_units_url()
 
     def _update_bifurcation(self) -> None:
         name = self.state.bif

@@ -17,8 +17,10 @@ per axis, and presses Compute. The map runs through :func:`rattle_core.maps.run_
 
 The map is a Bokeh image whose data source (``map_image``) also holds, per cell, the values the
 hover tool shows. A click on a regime map sets the dashboard's parameters to that point (through
-the state's validation); a click on a basin map starts the gear there at t = 0. Slider moves
-only mark the map as computed for other parameters: a map is recomputed only on request.
+the state's validation; on a physical axis, through the physical-units inputs, which then show
+the clicked engine speed or drag torque); a click on a basin map starts the gear there at
+t = 0. Slider moves only mark the map as computed for other parameters: a map is recomputed
+only on request.
 """
 from __future__ import annotations
 
@@ -48,6 +50,7 @@ from rattle_core.maps import REGIME_CODES, REGIME_COLOURS
 
 from .panel_base import FeaturePanel
 from .state import apply_values
+from .units_panel import UnitsPanel
 
 log = logging.getLogger(__name__)
 
@@ -713,6 +716,16 @@ class MapsPanel(FeaturePanel):
             names = (r.x_name, r.y_name)
             if set(names) <= set(DIMENSIONLESS_AXES):
                 values = {r.x_name: round(xv, 10), r.y_name: round(yv, 10)}
+            elif self._units_on():
+                # the physical inputs take the clicked values; Λ, j follow from them
+                point = {n: v for n, v in zip(names, (xv, yv))}
+                changes = {maps.PHYSICAL_AXES[n][0]: point[n] * maps.PHYSICAL_AXES[n][1]
+                           for n in names if n in maps.PHYSICAL_AXES}
+                msg = self._units_panel().set_physical(**changes)
+                if msg:
+                    self._show("run", msg)
+                    return
+                values = {n: round(point[n], 10) for n in names if n in DIMENSIONLESS_AXES}
             else:
                 phys = self._request["phys"] if self._request else None
                 p = maps.point_params(r.params, phys, names, (xv, yv))
@@ -727,6 +740,14 @@ class MapsPanel(FeaturePanel):
             self._show("run", "; ".join(errors.values()))
         else:
             self._clear("run")
+
+    def _units_panel(self) -> UnitsPanel | None:
+        return next((p for p in getattr(self.dashboard, "panels", ()) if isinstance(p, UnitsPanel)),
+                    None)
+
+    def _units_on(self) -> bool:
+        panel = self._units_panel()
+        return panel is not None and panel.on
 
     def _draw_marker(self) -> None:
         r = self.result

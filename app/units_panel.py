@@ -15,6 +15,20 @@ that object while the mode is on, and None while it is off.
 
 The Explorer tab shows both parameter sets side by side and the rattle metrics in SI units;
 that table is all :meth:`UnitsPanel.on_redraw` updates, so a slider move stays cheap.
+
+The URL carries the mode only while it is on: ``units=1`` and the inputs under short keys
+(:data:`URL_KEYS`: ``J``, ``Rb``, ``C`` in SI units, ``b_um`` the backlash in µm whatever unit
+it is shown in, ``b_unit``, ``rpm``, ``order``, ``exc``, ``a1``, ``a2`` and ``p2`` in the
+excitation's own units, ``solve`` the quantity absorbing Λ), beside the dimensionless keys,
+which always agree with them. Orders ≥ 3 travel as the dimensionless ``harmonics`` key, as
+their physical amplitudes keep their ratio to order 1. When a URL holds both, **the physical
+inputs win**: as soon as one numeric physical key is present, the physical set is built from
+the URL (the example gear's value for each key missing or rejected; ``r`` and ``v_stick`` from
+the dimensionless keys) and Λ, j, h₂, φ₂ follow from it. A URL with ``units=1`` and no numeric
+physical key keeps its dimensionless values and solves the physical set from them, as turning
+the switch on does. A rejected key leaves a message beside its input naming the value and the
+allowed range, the example's value for it, and the URL corrected to the inputs shown; the
+physical keys are ignored without ``units=1``.
 """
 from __future__ import annotations
 
@@ -31,7 +45,7 @@ from rattle_core.params import check_range
 from rattle_core.units import PhysicalParams, wrap_deg
 
 from .panel_base import FeaturePanel
-from .state import apply_values
+from .state import apply_values, parse_harmonics
 
 if TYPE_CHECKING:
     from .dashboard import Dashboard
@@ -47,6 +61,12 @@ BACKLASH_OPTIONS = {"µm along the line of action": "um", "degrees of the idle g
 #: Numeric inputs: name → field of PhysicalParams they edit (amplitudes and phases by index).
 NUMERIC = ("inertia", "radius", "drag_torque", "backlash", "rpm", "order", "amp1", "amp2",
            "phase2")
+#: URL query key → the input whose message shows a rejected value (``units``: the page's own).
+URL_KEYS = {"units": None, "J": "inertia", "Rb": "radius", "C": "drag_torque", "b_um": "backlash",
+            "b_unit": "backlash", "rpm": "rpm", "order": "order", "exc": "amp1", "a1": "amp1",
+            "a2": "amp2", "p2": "phase2", "solve": "solve_for"}
+#: Numeric URL keys: their presence makes the physical inputs win over the dimensionless keys.
+URL_NUMERIC = ("J", "Rb", "C", "b_um", "rpm", "order", "a1", "a2", "p2")
 
 
 def _interval(lo: float, hi: float, lo_open: bool) -> str:
@@ -56,6 +76,37 @@ def _interval(lo: float, hi: float, lo_open: bool) -> str:
 def _show(v: float) -> float:
     """A value as the inputs display it: six significant digits."""
     return float(f"{v:.6g}")
+
+
+def _url_number(v: float) -> str:
+    """The shortest text that reads back as exactly ``v``."""
+    text = repr(float(v))
+    return text[:-2] if text.endswith(".0") else text
+
+
+def _url_um(backlash: float) -> str:
+    """Backlash in µm as the shortest text that maps back to exactly ``backlash`` metres."""
+    um = backlash * 1e6
+    for y in (um, math.nextafter(um, -math.inf), math.nextafter(um, math.inf)):
+        for digits in range(1, 18):
+            text = f"{y:.{digits}g}"
+            if float(text) / 1e6 == backlash:
+                return _url_number(float(text))
+    return _url_number(um)
+
+
+def _as_kind(p: PhysicalParams, kind: str) -> PhysicalParams:
+    """The same excitation described by displacements or by accelerations."""
+    if kind == p.excitation:
+        return p
+    if kind == "acceleration":
+        k = range(1, len(p.amplitudes) + 1)
+        amps = tuple(a * (i * p.omega) ** 2 for i, a in zip(k, p.amplitudes))
+        phases = tuple(wrap_deg(v - 180.0) for v in p.phases_deg)
+    else:
+        amps = tuple(float(a) for a in p.displacement_amplitudes)
+        phases = tuple(float(v) for v in p.displacement_phases_deg)
+    return p.replace(excitation=kind, amplitudes=amps, phases_deg=phases)
 
 
 def same_model(a: RattleParams, b: RattleParams, rel: float = 1e-9) -> bool:
@@ -77,6 +128,7 @@ class UnitsPanel(FeaturePanel):
         self.phys: PhysicalParams = units.example()
         self._syncing = False
         self._applying = False
+        self._unreachable = False
         self.switch = pn.widgets.Switch(value=False, width=50, margin=(12, 10, 0, 10),
                                         css_classes=["units-switch"])
         self.switch.param.watch(self._on_switch, "value")
@@ -263,8 +315,11 @@ class UnitsPanel(FeaturePanel):
             self._error("solve_for", f"Λ = {params.lam:g}, j = {params.j:g} cannot be reached by "
                                      f"moving the {self._solve_label()}: {exc}. The physical inputs "
                                      "show their last values.")
+            self._unreachable = True
             return self.phys
-        self._clear("solve_for")
+        if self._unreachable:  # only its own message: a link's stays until the next edit
+            self._unreachable = False
+            self._clear("solve_for")
         self.phys = new
         self.dashboard.physical = new
         self._to_widgets()
@@ -337,6 +392,170 @@ class UnitsPanel(FeaturePanel):
         """Set the engine speed (a click on the rpm diagram); the message if refused."""
         return self.edit("rpm", rpm)
 
+    def set_physical(self, **changes: float) -> str | None:
+        """Set physical quantities at once (a click on a map with physical axes); the message if refused.
+
+        ``changes`` name fields of :class:`PhysicalParams` (``rpm``, ``drag_torque``,
+        ``inertia``, ``backlash`` in metres, ...). The inputs, the table and Λ, j follow in one
+        redraw; a refused set leaves a message beside the first input named and changes nothing.
+        """
+        shown = [n for n in changes if n in self.inputs] or ["solve_for"]
+        old = self.phys
+        try:
+            cand = old.replace(**{k: float(v) for k, v in changes.items()})
+            self._apply(cand)
+        except (TypeError, ValueError) as exc:
+            self.phys = old
+            self.dashboard.physical = old if self.on else None
+            what = ", ".join(f"{k} = {v!r}" for k, v in changes.items())
+            msg = f"{what}: {exc}. Kept the physical inputs as they were."
+            self._error(shown[0], msg)
+            self._to_widgets()
+            return msg
+        for name in shown:
+            self._clear(name)
+        self._to_widgets()
+        return None
+
+    # ----- the URL ------------------------------------------------------------------------------
+
+    def url_values(self) -> dict[str, str]:
+        """The mode and its inputs as URL query values (:data:`URL_KEYS`); empty while off."""
+        if not self.on:
+            return {}
+        p = self.phys
+        second = len(p.amplitudes) > 1
+        return {"units": "1", "J": _url_number(p.inertia), "Rb": _url_number(p.radius),
+                "C": _url_number(p.drag_torque), "b_um": _url_um(p.backlash),
+                "b_unit": self.backlash_unit.value, "rpm": _url_number(p.rpm),
+                "order": _url_number(p.order), "exc": p.excitation,
+                "a1": _url_number(p.amplitudes[0]),
+                "a2": _url_number(p.amplitudes[1] if second else 0.0),
+                "p2": _url_number(p.phases_deg[1] if second else 0.0),
+                "solve": self.solve_for.value}
+
+    def restore_url(self, query: dict[str, str]) -> dict[str, str]:
+        """Turn the mode on from URL query values (raw text) if ``units=1``; return rejections.
+
+        Each rejected key gets a message beside its input and keeps the example's value; the
+        returned ``{key: message}`` lists them. Never raises on any text.
+        """
+        errors: dict[str, str] = {}
+        flag = query.get("units")
+        if flag is None:
+            return errors
+        if str(flag).strip().lower() in ("0", "false", "off", ""):
+            return errors
+        if str(flag).strip().lower() not in ("1", "true", "on"):
+            errors["units"] = f"units = {flag!r}; allowed: 1 (physical units on) or 0"
+            return errors
+
+        beside: dict[str, list[str]] = {}
+
+        def reject(key: str, message: str) -> None:
+            message = message.rstrip(".") + "."
+            errors[key] = message
+            name = URL_KEYS[key]
+            if name is not None:  # the mode itself has no input: the page's message
+                beside.setdefault(name, []).append(f"URL: {message}")
+                self._error(name, " ".join(beside[name]))
+
+        kind = self.phys.excitation
+        if "exc" in query:
+            if query["exc"] in EXCITATION_OPTIONS.values():
+                kind = query["exc"]
+            else:
+                reject("exc", f"exc = {query['exc']!r}; allowed: displacement or acceleration. "
+                              f"Kept {kind}")
+        if "b_unit" in query:
+            if query["b_unit"] in BACKLASH_OPTIONS.values():
+                self.backlash_unit.value = query["b_unit"]
+            else:
+                reject("b_unit", f"b_unit = {query['b_unit']!r}; allowed: um or deg. "
+                                 f"Kept {self.backlash_unit.value}")
+        base = _as_kind(self.phys, kind)
+        amp_rng = units.THETA_RANGE if kind == "displacement" else units.ALPHA_RANGE
+        amp_unit = "rad" if kind == "displacement" else "rad/s²"
+        checks = {  # key: (field default, range, lo_open, unit)
+            "J": (base.inertia, units.INERTIA_RANGE, True, "kg·m²"),
+            "Rb": (base.radius, units.RADIUS_RANGE, True, "m"),
+            "C": (base.drag_torque, units.DRAG_TORQUE_RANGE, True, "N·m"),
+            "b_um": (base.backlash_um, tuple(v * 1e6 for v in units.BACKLASH_RANGE), True, "µm"),
+            "rpm": (base.rpm, units.RPM_RANGE, True, "rpm"),
+            "order": (base.order, units.ORDER_RANGE, True, ""),
+            "a1": (base.amplitudes[0], amp_rng, True, amp_unit),
+            "a2": (base.amplitudes[1] if len(base.amplitudes) > 1 else 0.0, amp_rng, False, amp_unit),
+            "p2": (base.phases_deg[1] if len(base.phases_deg) > 1 else 0.0,
+                   (-1e6, 1e6), False, "°"),
+        }
+        got = {}
+        for key, (default, (lo, hi), lo_open, unit) in checks.items():
+            if key not in query:
+                got[key] = default
+                continue
+            try:
+                got[key] = check_range(key, query[key], lo, hi, lo_open=lo_open)
+            except ValueError as exc:
+                got[key] = default
+                reject(key, f"{f'{exc} {unit}'.rstrip()}. Kept {default:g}")
+        if "solve" in query:
+            solve = query["solve"]
+            if solve not in SOLVE_FOR_OPTIONS.values():
+                reject("solve", f"solve = {solve!r}; allowed: {', '.join(SOLVE_FOR_OPTIONS.values())}. "
+                                f"Kept {self.solve_for.value}")
+            elif solve == "rpm" and kind == "acceleration":
+                reject("solve", "solve = 'rpm' is not allowed with acceleration amplitudes: "
+                                "Λ = m R_d α₁ / F does not depend on engine speed. Kept the amplitude")
+            else:
+                self.solve_for.value = solve
+        if kind == "acceleration" and self.solve_for.value == "rpm":
+            self.solve_for.value = "amplitude"
+
+        physical_wins = any(key in query for key in URL_NUMERIC)
+        cand = None
+        if physical_wins:
+            try:
+                cand = self._url_candidate(base, got)
+            except ValueError as exc:
+                reject("units", f"the physical inputs of this link give no valid model: {exc}. "
+                                "The physical inputs follow the dimensionless values instead")
+        self.phys = base
+        self._describe()
+        self.set_mode(True)
+        if cand is not None:
+            try:
+                self._apply(cand)
+            except ValueError as exc:
+                self.phys = base
+                self.dashboard.physical = base
+                reject("units", f"the physical inputs of this link give no valid model: {exc}. "
+                                "The physical inputs follow the dimensionless values instead")
+                self.sync(force=True)
+        self._to_widgets()
+        self._update_table()
+        self.dashboard.units_changed()
+        for name, messages in beside.items():  # solving for the state clears the solve_for message
+            self._error(name, " ".join(messages))
+        return errors
+
+    def _url_candidate(self, base: PhysicalParams, got: dict[str, float]) -> PhysicalParams:
+        """The physical set a link describes; orders ≥ 3 and r, v_stick from the state."""
+        state = self.dashboard.state
+        acc = base.excitation == "acceleration"
+        extra = parse_harmonics(state.harmonics)
+        n = max([2, *extra])
+        a1 = got["a1"]
+        amps = [a1, got["a2"]] + [0.0] * (n - 2)
+        # as PhysicalParams.from_dimensionless maps the dimensionless phases of orders ≥ 3
+        phases = [180.0 if acc else 0.0, got["p2"]] + [180.0 if acc else 0.0] * (n - 2)
+        for k, (h, phi) in extra.items():
+            amps[k - 1] = h * (k * k) * a1 if acc else h * a1
+            phases[k - 1] = wrap_deg(phi - 180.0) if acc else phi
+        return base.replace(inertia=got["J"], radius=got["Rb"], drag_torque=got["C"],
+                            backlash=units.backlash_from_um(got["b_um"]), rpm=got["rpm"],
+                            order=got["order"], amplitudes=tuple(amps), phases_deg=tuple(phases),
+                            r=state.r, v_stick=state.v_stick)
+
     def _apply(self, cand: PhysicalParams) -> None:
         """Write the dimensionless image of ``cand`` into the dashboard's state, in one redraw."""
         params = cand.to_dimensionless()
@@ -363,6 +582,7 @@ class UnitsPanel(FeaturePanel):
         self._describe()
         self._clear("backlash")
         self._to_widgets()
+        self._write_url()
 
     def _on_excitation(self, event) -> None:
         if self._syncing:
@@ -378,15 +598,8 @@ class UnitsPanel(FeaturePanel):
         p = self.phys
         if kind == p.excitation:
             return
-        if kind == "acceleration":
-            k = range(1, len(p.amplitudes) + 1)
-            amps = tuple(a * (i * p.omega) ** 2 for i, a in zip(k, p.amplitudes))
-            phases = tuple(wrap_deg(v - 180.0) for v in p.phases_deg)
-        else:
-            amps = tuple(float(a) for a in p.displacement_amplitudes)
-            phases = tuple(float(v) for v in p.displacement_phases_deg)
         try:
-            cand = p.replace(excitation=kind, amplitudes=amps, phases_deg=phases)
+            cand = _as_kind(p, kind)
         except ValueError as exc:
             self._error("amp1", f"These amplitudes cannot be given as {kind}s: {exc}")
             self._to_widgets()
@@ -409,6 +622,7 @@ class UnitsPanel(FeaturePanel):
                                      "amplitude, or give the excitation as displacements.")
             return
         self._clear("solve_for")
+        self._write_url()
 
     # ----- the Explorer table -------------------------------------------------------------------
 
@@ -418,6 +632,12 @@ class UnitsPanel(FeaturePanel):
         self.sync()
         self.dashboard.physical = self.phys
         self._update_table()
+        self._write_url()
+
+    def _write_url(self) -> None:
+        write = getattr(self.dashboard, "write_units_url", None)
+        if write is not None:
+            write()
 
     def _update_table(self) -> None:
         self.table.object = table_html(self.phys, getattr(self.dashboard, "classification", None))

@@ -260,3 +260,39 @@ def test_local_dask_cluster_gives_the_same_map(panel):
         np.testing.assert_array_equal(panel.result.fields[k], v)
     assert mp.dask_client("local") is mp.dask_client("local")
     assert len(mp._cluster.workers) == 2
+
+
+def test_click_on_a_physical_map_sets_the_physical_inputs(panel, dash):
+    """Units on: a click on an rpm × drag-torque map puts that rpm and C in the inputs and table."""
+    from html import escape
+
+    from app.units_panel import UnitsPanel
+    units = next(p for p in dash.panels if isinstance(p, UnitsPanel))
+    units.set_mode(True)
+    dash.refresh()
+    panel.on_redraw()
+    held = units.phys
+    panel.x_axis.value, panel.y_axis.value = "rpm", "drag_torque"
+    small(panel, 3, 3)
+    panel.compute_now()
+    assert visible_messages(panel) == {}, visible_messages(panel)
+    r = panel.result
+    rpm, torque = float(r.x_values[2]), float(r.y_values[1])
+    assert rpm != held.rpm and torque != held.drag_torque
+    panel.select_point(r.x_values[2] + 1e-3, r.y_values[1])
+    want = held.replace(rpm=rpm, drag_torque=torque)
+    assert dash.physical == want and units.phys == want
+    assert dash.state.lam == want.lam and dash.state.j == want.to_dimensionless().j
+    assert units.inputs["rpm"].value == float(f"{rpm:.6g}")
+    assert units.inputs["drag_torque"].value == float(f"{torque:.6g}")
+    assert escape(f"{rpm:.6g} rpm") in units.table.object
+    assert escape(f"{torque:.6g} N·m") in units.table.object
+    # a mixed map: the dimensionless axis is set too, the physical one stays as clicked
+    panel.x_axis.value, panel.y_axis.value = "drag_torque", "r"
+    small(panel, 3, 3)
+    panel.compute_now()
+    r = panel.result
+    panel.select_point(r.x_values[0], r.y_values[2])
+    assert dash.state.r == round(float(r.y_values[2]), 10)
+    assert units.phys.drag_torque == float(r.x_values[0]) and units.phys.r == dash.state.r
+    assert units.phys.to_dimensionless().lam == pytest.approx(dash.state.lam, rel=1e-12)

@@ -231,3 +231,146 @@ def test_rpm_diagram_zoom_refines_in_rpm(dash, panel):
     assert rpm[0] == pytest.approx(a, rel=1e-12) and rpm[-1] == pytest.approx(b, rel=1e-12)
     dash._job.future.result(timeout=300)
     assert "refined" in dash._bif.source and dash._bif.name == "rpm"
+
+
+# ----- the mode in the URL --------------------------------------------------------------------
+
+def _dashboard_at(query: str):
+    """A dashboard opened on ``query``, with a URL of its own as in the browser."""
+    from panel.io.location import Location
+
+    from app.dashboard import Dashboard
+    from app.units_panel import UnitsPanel
+
+    loc = Location(search=query)
+    d = Dashboard(location=loc)
+    return d, next(p for p in d.panels if isinstance(p, UnitsPanel)), loc
+
+
+def _query(loc) -> dict[str, str]:
+    from urllib.parse import parse_qsl
+    return dict(parse_qsl(loc.search[1:], keep_blank_values=True))
+
+
+@pytest.fixture()
+def opened():
+    made = []
+
+    def open_at(query: str):
+        d, p, loc = _dashboard_at(query)
+        made.append(d)
+        return d, p, loc
+    yield open_at
+    for d in made:
+        d._cancel_job()
+
+
+@pytest.mark.parametrize("kind", ["displacement", "acceleration"])
+def test_url_round_trip_restores_the_physical_set(dash, panel, opened, kind):
+    """Mode on, inputs typed: a dashboard opened on the query values has the same physical set and Λ."""
+    from urllib.parse import urlencode
+
+    from app.state import URL_KEYS
+
+    dash.state.harmonics = "3:0.1:30"
+    dash.state.r = 0.5
+    for name, value in (("inertia", 3e-4), ("drag_torque", 0.03), ("backlash", 123.4),
+                        ("amp2", 2e-4), ("phase2", 30.0), ("rpm", 2345.6)):
+        assert panel.edit(name, value) is None
+    panel.set_excitation(kind)
+    panel.solve_for.value = "drag_torque"
+    panel.backlash_unit.value = "deg"
+    assert len(dash.physical.amplitudes) == 3 and dash.physical.r == 0.5
+    query = {**{k: dash._url_value(k) for k in URL_KEYS}, **panel.url_values()}
+    d2, p2, loc2 = opened("?" + urlencode(query))
+    assert p2.on and p2.switch.value
+    # orders ≥ 3 travel as their dimensionless ratio (the harmonics key), so to rounding only
+    third = dash.physical.amplitudes[2]
+    assert d2.physical.amplitudes[2] == pytest.approx(third, rel=1e-14)
+    assert d2.physical == dash.physical.replace(
+        amplitudes=(*dash.physical.amplitudes[:2], d2.physical.amplitudes[2]))
+    assert d2.state.lam == dash.state.lam == dash.physical.lam
+    assert (d2.state.j, d2.state.h2, d2.state.phi2) == (dash.state.j, dash.state.h2, dash.state.phi2)
+    assert d2.state.harmonics == dash.state.harmonics
+    assert (p2.solve_for.value, p2.backlash_unit.value) == ("drag_torque", "deg")
+    assert p2.url_values() == panel.url_values()
+    assert {k: v for k, v in _query(loc2).items() if k in p2.url_values()} == panel.url_values()
+    assert not any(a.visible for a in p2.alerts.values()) and not d2.global_alert.visible
+
+
+def test_url_physical_inputs_win_over_lambda(opened):
+    """units=1 with rpm and Λ: Λ follows the engine speed; without a physical key Λ is kept."""
+    d, p, loc = opened("?units=1&rpm=2000&lam=2.0")
+    want = units.example().with_rpm(2000.0).lam
+    assert d.state.lam == want and d.physical.rpm == 2000.0
+    assert _query(loc)["lam"] == repr(want) and _query(loc)["rpm"] == "2000"
+    d, p, loc = opened("?units=1&lam=2.0")
+    assert d.state.lam == 2.0 and p.on
+    assert d.physical.rpm == pytest.approx(float(units.rpm_from_lam(units.example(), 2.0)), rel=1e-12)
+
+
+def test_url_mode_off_adds_no_keys_and_switching_off_removes_them(opened):
+    """Mode off: the URL holds the state only; on adds the physical keys, off takes them away."""
+    from app.units_panel import URL_KEYS as UNITS_KEYS
+
+    d, p, loc = opened("?lam=2.2&r=0.5")
+    assert d.physical is None and not set(_query(loc)) & set(UNITS_KEYS)
+    assert _query(loc)["lam"] == "2.2"
+    p.set_mode(True)
+    assert _query(loc)["units"] == "1" and float(_query(loc)["rpm"]) == d.physical.rpm
+    p.edit("rpm", 2500.0)
+    assert _query(loc)["rpm"] == "2500" and float(_query(loc)["lam"]) == d.state.lam
+    p.set_mode(False)
+    assert not set(_query(loc)) & set(UNITS_KEYS)
+    d, p, loc = opened("?rpm=2000&J=1")  # physical keys without units=1 are ignored and removed
+    assert d.physical is None and not set(_query(loc)) & set(UNITS_KEYS)
+
+
+@pytest.mark.parametrize("key, text, name, words", [
+    ("rpm", "nan", "rpm", ["rpm", "(0, 100000]"]),
+    ("rpm", "-5", "rpm", ["rpm", "(0, 100000]"]),
+    ("J", "abc", "inertia", ["J", "(0, 10]", "kg·m²"]),
+    ("C", "1e9", "drag_torque", ["C", "(0, 10000]"]),
+    ("b_um", "0", "backlash", ["b_um", "(0, 100000]", "µm"]),
+    ("order", "inf", "order", ["order", "(0, 100]"]),
+    ("a1", "4", "amp1", ["a1", "(0, 3.14159]", "rad"]),
+    ("a2", "xyz", "amp2", ["a2", "[0, 3.14159]"]),
+    ("p2", "1e7", "phase2", ["p2", "[-1e+06, 1e+06]"]),
+    ("exc", "sideways", "amp1", ["exc", "displacement or acceleration"]),
+    ("b_unit", "furlong", "backlash", ["b_unit", "um or deg"]),
+    ("solve", "luck", "solve_for", ["solve", "drag_torque"]),
+])
+def test_garbage_url_values_show_a_message_and_keep_the_default(opened, key, text, name, words):
+    """A bad physical key: its message beside its input, the example's value, the URL corrected."""
+    from app.state import DashboardState
+    from app.units_panel import URL_NUMERIC
+
+    d, p, loc = opened(f"?units=1&{key}={text}&r=0.4")
+    example = units.example().replace(r=0.4)
+    assert p.on and d.state.r == 0.4
+    if key in URL_NUMERIC:  # a physical key was given: the physical set (the example) wins
+        assert d.physical == example and d.state.lam == example.lam
+    else:  # none was: Λ stays and the example's engine speed moves to it
+        lam = DashboardState.param["lam"].default
+        assert d.state.lam == lam
+        assert d.physical == PhysicalParams.from_dimensionless(d.params, example, solve_for="rpm")
+    alert = p.alerts[name]
+    assert alert.visible and alert.object.startswith("URL: ")
+    for w in words:
+        assert w in alert.object, (w, alert.object)
+    assert "Kept" in alert.object
+    assert [n for n, a in p.alerts.items() if a.visible] == [name]
+    assert _query(loc)[key] == p.url_values()[key] != text
+
+
+def test_url_mode_flag_garbage_and_unreachable_sets(opened):
+    """units=banana: mode off, a page message. A physical set outside the model: Λ from the URL."""
+    d, p, loc = opened("?units=banana&rpm=2000")
+    assert d.physical is None and not p.on
+    assert d.global_alert.visible and "units = 'banana'" in d.global_alert.object
+    assert "rpm" not in _query(loc)
+    # 1e-6 N·m of drag with the example gear gives Λ far beyond the model's range
+    d, p, loc = opened("?units=1&C=1e-9&lam=2.0")
+    assert p.on and d.state.lam == 2.0
+    assert d.physical.to_dimensionless().lam == pytest.approx(2.0, rel=1e-12)
+    assert d.global_alert.visible and "no valid model" in d.global_alert.object
