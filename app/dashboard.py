@@ -281,16 +281,33 @@ class Dashboard:
             if key not in URL_KEYS and key not in units_panel.URL_KEYS:
                 errors.setdefault("global", f"unknown URL parameter {key!r} ignored")
         # the physical-units mode after the state, so its inputs win over Λ, j, h₂, φ₂
-        raw = dict(urllib.parse.parse_qsl(location.search[1:], keep_blank_values=True))
+        rejected = self._restore_units(location.search)
+        if "units" in rejected:
+            errors.setdefault("global", rejected["units"])
+        # the browser reports the link's query again once connected: after the state has
+        # taken it (Panel's watcher runs first), the physical inputs win again
+        location.param.watch(self._on_search, "search")
+        return errors
+
+    def _restore_units(self, search: str) -> dict[str, str]:
+        """Restore the physical-units mode from a query string; return its rejected keys."""
+        raw = dict(urllib.parse.parse_qsl(search[1:], keep_blank_values=True))
         panel = self._units_panel()
-        if panel is not None:
-            rejected = panel.restore_url(raw)
-            if "units" in rejected:
-                errors.setdefault("global", rejected["units"])
+        rejected = panel.restore_url(raw) if panel is not None else {}
         if any(key in raw for key in units_panel.URL_KEYS):
             self._units_query = None  # correct the link to the inputs shown
         self.write_units_url()
-        return errors
+        return rejected
+
+    @guarded
+    def _on_search(self, event) -> None:
+        raw = urllib.parse.parse_qsl(event.new[1:], keep_blank_values=True)
+        linked = {k: v for k, v in raw if k in units_panel.URL_KEYS}
+        if not linked or linked == self._units_query:
+            return  # no physical-units key, or the ones this session wrote
+        rejected = self._restore_units(event.new)
+        if "units" in rejected:
+            self.show_error(None, f"URL: {rejected['units']}")
 
     def write_units_url(self) -> None:
         """Put the physical-units mode and its inputs in the URL while it is on, and only then."""

@@ -460,7 +460,8 @@ class UnitsPanel(FeaturePanel):
                 beside.setdefault(name, []).append(f"URL: {message}")
                 self._error(name, " ".join(beside[name]))
 
-        kind = self.phys.excitation
+        example = units.example().replace(r=self.phys.r, v_stick=self.phys.v_stick)
+        kind = example.excitation
         if "exc" in query:
             if query["exc"] in EXCITATION_OPTIONS.values():
                 kind = query["exc"]
@@ -473,7 +474,7 @@ class UnitsPanel(FeaturePanel):
             else:
                 reject("b_unit", f"b_unit = {query['b_unit']!r}; allowed: um or deg. "
                                  f"Kept {self.backlash_unit.value}")
-        base = _as_kind(self.phys, kind)
+        base = _as_kind(example, kind)
         amp_rng = units.THETA_RANGE if kind == "displacement" else units.ALPHA_RANGE
         amp_unit = "rad" if kind == "displacement" else "rad/s²"
         checks = {  # key: (field default, range, lo_open, unit)

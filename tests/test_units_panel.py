@@ -374,3 +374,17 @@ def test_url_mode_flag_garbage_and_unreachable_sets(opened):
     assert p.on and d.state.lam == 2.0
     assert d.physical.to_dimensionless().lam == pytest.approx(2.0, rel=1e-12)
     assert d.global_alert.visible and "no valid model" in d.global_alert.object
+
+
+def test_link_reported_again_by_the_browser_keeps_the_physical_inputs(opened):
+    """The browser sends the link's query again once connected: the physical inputs still win."""
+    link = "?units=1&rpm=2000&J=3e-4&lam=1"
+    d, p, loc = opened(link)
+    want = units.example().replace(rpm=2000.0, inertia=3e-4)
+    assert d.physical == want and d.state.lam == want.lam
+    loc.search = link  # Panel applies lam=1 to the state first, then the mode restores
+    assert d.physical == want and d.state.lam == want.lam and d.params.lam == want.lam
+    assert _query(loc)["rpm"] == "2000" and _query(loc)["J"] == "0.0003"
+    loc.search = link.replace("rpm=2000", "rpm=oops")
+    assert d.physical == units.example().replace(inertia=3e-4)
+    assert "Kept 1500" in p.alerts["rpm"].object and p.alerts["rpm"].visible
