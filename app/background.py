@@ -114,12 +114,16 @@ def run_sweep(req: SweepRequest, progress: Callable[[int, int], Any] | None = No
     return diagram_from_result(res, source)
 
 
-class Job:
-    """A queued or running sweep that its session can cancel at any time."""
+class CancellableJob:
+    """Background work that its session can cancel at any time; subclasses define ``run``.
 
-    def __init__(self, req: SweepRequest, on_progress: Callable[[float], None],
-                 on_done: Callable[[Diagram], None], on_error: Callable[[str], None]):
-        self.request = req
+    The work polls :attr:`cancelled` (or passes ``self._cancel.is_set`` on) between chunks;
+    progress is reported as a fraction, and never after a cancel.
+    """
+
+    def __init__(self, request: Any, on_progress: Callable[[float], None],
+                 on_done: Callable[..., None], on_error: Callable[..., None]):
+        self.request = request
         self._cancel = threading.Event()
         self._on_progress = on_progress
         self._on_done = on_done
@@ -136,6 +140,13 @@ class Job:
     def _progress(self, done: int, total: int) -> None:
         if not self.cancelled:
             self._on_progress(done / max(total, 1))
+
+    def run(self) -> None:
+        raise NotImplementedError
+
+
+class Job(CancellableJob):
+    """A queued or running bifurcation sweep."""
 
     def run(self) -> None:
         if self.cancelled:

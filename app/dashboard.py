@@ -30,6 +30,7 @@ from rattle_core.classify import contact_boundary
 from rattle_core.excitation import excitation
 
 from . import background, maps_panel, sound_panel, units_panel, views
+from .panel_base import guard
 from .state import (FIELDS, PRESETS, URL_KEYS, DashboardState, apply_values, format_harmonics,
                     initial_x, parse_harmonics, rattle_params, validate_field)
 
@@ -49,17 +50,8 @@ BIF_AXIS = {"lam": "Λ", "phi2": "φ₂ (degrees, core convention)", "rpm": "eng
 BIF_OPTIONS = {"Ĩ vs Λ": "lam", "Ĩ vs φ₂": "phi2"}
 
 
-def guarded(method: Callable) -> Callable:
-    """Run a callback; turn any exception into a message in this session, not a traceback."""
-    @functools.wraps(method)
-    def wrapper(self: "Dashboard", *args: Any, **kwargs: Any) -> Any:
-        try:
-            return method(self, *args, **kwargs)
-        except Exception as exc:
-            log.warning("%s failed: %s: %s", method.__name__, type(exc).__name__, exc)
-            self.show_error(None, f"{type(exc).__name__}: {exc}")
-            return None
-    return wrapper
+#: Callbacks of the dashboard: an exception becomes the page-level message.
+guarded = guard(None)
 
 
 class Dashboard:

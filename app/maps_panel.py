@@ -48,6 +48,7 @@ from rattle_core import maps
 from rattle_core.excitation import excitation
 from rattle_core.maps import REGIME_CODES, REGIME_COLOURS
 
+from .background import CancellableJob
 from .panel_base import FeaturePanel
 from .state import apply_values
 from .units_panel import UnitsPanel
@@ -159,28 +160,11 @@ def _close_dask() -> None:
 
 # ----- the background job -----------------------------------------------------------------
 
-class MapJob:
-    """One map request, run on the maps worker thread (or in the caller's, for tests)."""
+class MapJob(CancellableJob):
+    """One map request, run on the maps worker thread (or in the caller's, for tests).
 
-    def __init__(self, request: dict, on_progress: Callable[[float], None],
-                 on_done: Callable[[Any, float], None], on_error: Callable[[str, str], None]):
-        self.request = request
-        self._cancel = threading.Event()
-        self._on_progress = on_progress
-        self._on_done = on_done
-        self._on_error = on_error
-        self.future = None
-
-    def cancel(self) -> None:
-        self._cancel.set()
-
-    @property
-    def cancelled(self) -> bool:
-        return self._cancel.is_set()
-
-    def _progress(self, done: int, total: int) -> None:
-        if not self.cancelled:
-            self._on_progress(done / max(total, 1))
+    ``on_done(result, seconds)``; ``on_error(control, message)`` names the control at fault.
+    """
 
     def run(self) -> None:
         if self.cancelled:

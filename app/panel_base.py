@@ -13,10 +13,32 @@ offers and tells it when the trajectory changed:
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+import functools
+import logging
+from typing import TYPE_CHECKING, Any, Callable
 
 if TYPE_CHECKING:
     from .dashboard import Dashboard
+
+
+log = logging.getLogger("app")
+
+
+def guard(field: str | None) -> Callable[[Callable], Callable]:
+    """Decorator for callbacks of an object with ``show_error(field, message)``: any exception
+    becomes that message and one log line, never a traceback in the server log."""
+    def decorate(method: Callable) -> Callable:
+        @functools.wraps(method)
+        def wrapper(self: Any, *args: Any, **kwargs: Any) -> Any:
+            try:
+                return method(self, *args, **kwargs)
+            except Exception as exc:
+                log.warning("%s.%s failed: %s: %s", type(self).__name__, method.__name__,
+                            type(exc).__name__, exc)
+                self.show_error(field, f"{type(exc).__name__}: {exc}")
+                return None
+        return wrapper
+    return decorate
 
 
 class FeaturePanel:

@@ -25,7 +25,7 @@ import io
 import logging
 import math
 import time
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import panel as pn
@@ -38,7 +38,7 @@ from rattle_core.sound import (DEFAULT_EXCITATION_HZ, DEFAULT_MODES, DEFAULT_SAM
                                synthesize, to_int16)
 from rattle_core.units import PhysicalParams
 
-from .panel_base import FeaturePanel
+from .panel_base import FeaturePanel, guard
 
 if TYPE_CHECKING:
     from .dashboard import Dashboard
@@ -107,17 +107,8 @@ def what_to_hear(classification, impacts: int, seconds: float, freq_hz: float) -
             f"period{'s' if c.period > 1 else ''} ({freq_hz / max(c.period, 1):.4g} Hz).")
 
 
-def guarded(method: Callable) -> Callable:
-    """Run a callback; an exception becomes a message on the card, never a traceback."""
-    @functools.wraps(method)
-    def wrapper(self: "SoundPanel", *args: Any, **kwargs: Any) -> Any:
-        try:
-            return method(self, *args, **kwargs)
-        except Exception as exc:
-            log.warning("sound %s failed: %s: %s", method.__name__, type(exc).__name__, exc)
-            self.show_error("render", f"{type(exc).__name__}: {exc}")
-            return None
-    return wrapper
+#: Callbacks of the card: an exception becomes a message beside its render button.
+guarded = guard("render")
 
 
 class SoundPanel(FeaturePanel):

@@ -3,6 +3,8 @@
 * Browser tests (``@pytest.mark.ui``) drive Debian's Chromium through pytest-playwright, since
   Playwright cannot download its own browser here; they are skipped, with the reason, when
   Chromium or Playwright is missing (``scripts/test.sh`` installs both).
+* ``dash`` is one dashboard session built without a server or browser (the update path, the
+  feature panels), torn down like a closed session.
 * ``dashboard_server`` serves the real dashboard once per test session on a free port and
   records every log line, so tests can assert that the server printed no traceback.
 """
@@ -104,3 +106,18 @@ def dashboard_server():
     yield {"url": url, "log": recorder}
     server.stop()
     root.removeHandler(recorder)
+
+
+@pytest.fixture()
+def dash():
+    """A Dashboard with its panels, no server or browser; closed like a session afterwards."""
+    from app.dashboard import Dashboard
+    from app.main import configure, warm_up
+
+    configure()
+    warm_up()
+    d = Dashboard(sync_url=False)
+    yield d
+    d._cancel_job()
+    for panel in d.panels:
+        panel.on_destroyed()

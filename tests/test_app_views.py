@@ -197,17 +197,6 @@ def test_presets_reproduce_the_papers_regimes(label, regime):
 
 # ----- the dashboard's update path, without a server ----------------------------------------------
 
-@pytest.fixture()
-def dash():
-    from app.main import configure, warm_up
-    from app.dashboard import Dashboard
-
-    configure()
-    warm_up()
-    d = Dashboard(sync_url=False)
-    yield d
-    d._cancel_job()
-
 
 def _xsum(d) -> float:
     return float(np.sum(d.th_src["motion"].data["x"]))

@@ -21,20 +21,6 @@ def private_cache(tmp_path, monkeypatch):
 
 
 @pytest.fixture()
-def dash():
-    from app.dashboard import Dashboard
-    from app.main import configure, warm_up
-
-    configure()
-    warm_up()
-    d = Dashboard(sync_url=False)
-    yield d
-    d._cancel_job()
-    for panel in d.panels:
-        panel.on_destroyed()
-
-
-@pytest.fixture()
 def panel(dash):
     from app.maps_panel import MapsPanel
     p = next(p for p in dash.panels if isinstance(p, MapsPanel))

@@ -24,18 +24,6 @@ from rattle_core.units import PhysicalParams
 HARMONIC = {"h2": 0.0, "phi2": 0.0, "harmonics": ""}
 
 
-@pytest.fixture()
-def dash():
-    from app.dashboard import Dashboard
-    from app.main import configure, warm_up
-
-    configure()
-    warm_up()
-    d = Dashboard(sync_url=False)
-    yield d
-    d._cancel_job()
-
-
 def sound(d) -> sound_panel.SoundPanel:
     return next(p for p in d.panels if isinstance(p, sound_panel.SoundPanel))
 

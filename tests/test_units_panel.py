@@ -19,18 +19,6 @@ from rattle_core.units import PhysicalParams
 
 
 @pytest.fixture()
-def dash():
-    from app.main import configure, warm_up
-    from app.dashboard import Dashboard
-
-    configure()
-    warm_up()
-    d = Dashboard(sync_url=False)
-    yield d
-    d._cancel_job()
-
-
-@pytest.fixture()
 def panel(dash):
     from app.units_panel import UnitsPanel
 
