@@ -22,10 +22,10 @@ Definitions (all over the recorded window of ``P`` forcing periods, after the tr
   described by :attr:`Classification.label`) or ``Q`` (non-repeating without a positive
   exponent: quasi-periodic or a long transient).
 
-:func:`classify_arrays` classifies one window with numpy; :func:`classify_batch` classifies many
-windows at once in a compiled loop (sweeps and maps), with the same definitions and the same
-floating-point operations in the same order, so both give identical numbers value for value
-(sums follow numpy's pairwise summation).
+:func:`classify_batch` classifies many windows at once in one compiled pass (sweeps and maps);
+:func:`classify_arrays` and :func:`classify` are that pass on one window, so the rules live in
+one place. Sums follow numpy's pairwise summation, so results equal the numpy expressions of
+the definitions above.
 
 Analytic overlays: the permanent-contact boundary ``Λ_c = 1 / max_t(−ÿ)``, the one-sided
 period-n orbits (impulse ``2πn/Λ``) and their stability from the impact-map Jacobian
@@ -101,63 +101,30 @@ class Classification:
 
 def detect_period(sx: np.ndarray, sv: np.ndarray, scale: float = 1.0,
                   max_period: int = MAX_PERIOD, tol: float = PERIOD_TOL) -> int:
-    """Smallest n ≤ max_period such that the last half of the section repeats every n samples."""
-    m = len(sx)
-    if m < 4:
-        return 0
-    start = m // 2
-    thr = tol * (1.0 + scale)
-    for n in range(1, min(max_period, m - start - 1) + 1):
-        a = slice(start, m - n)
-        b = slice(start + n, m)
-        if (np.max(np.abs(sx[b] - sx[a])) <= thr) and (np.max(np.abs(sv[b] - sv[a])) <= thr):
-            return n
-    return 0
+    """Smallest n ≤ max_period such that the last half of the section repeats every n samples
+    (to ``tol × (1 + scale)`` in x and ẋ); 0 when none does or a sample is NaN."""
+    return int(_detect_period_nb(np.ascontiguousarray(sx, dtype=np.float64),
+                                 np.ascontiguousarray(sv, dtype=np.float64), float(scale),
+                                 int(max_period), float(tol)))
 
 
 def classify_arrays(impulse: np.ndarray, flank: np.ndarray, strobe_x: np.ndarray,
                     strobe_v: np.ndarray, periods: float, stick_time: float,
                     lyapunov: float, j: float) -> Classification:
-    """Classify a window from its impacts, section samples, stick time and exponent."""
-    periods = max(float(periods), 1e-300)
-    act = flank == 1
-    rev = flank == -1
-    n_act = int(act.sum())
-    n_rev = int(rev.sum())
-    stick_fraction = min(1.0, stick_time / (periods * TWO_PI))
-    period = detect_period(strobe_x, strobe_v, j)
-    chaotic = period == 0 and lyapunov > LYAP_CHAOS
-    a_pp = n_act / periods
-    r_pp = n_rev / periods
-
-    def stats(sel):
-        if not sel.any():
-            return 0.0, 0.0
-        a = np.abs(impulse[sel])
-        return float(a.mean()), float(np.sqrt(np.mean(a * a)))
-
-    ma, ra = stats(act)
-    mr, rr = stats(rev)
-    if n_act + n_rev == 0 and stick_fraction > 0.99:
-        regime = "A"
-    elif chaotic:
-        regime = "D"
-    elif stick_fraction > 0:
-        regime = "B"
-    elif period == 1 and n_rev == 0 and round(a_pp) == 1 and abs(a_pp - 1) < 0.02:
-        regime = "C"
-    elif period == 1 and abs(a_pp - 1) < 0.02 and abs(r_pp - 1) < 0.02:
-        regime = "E"
-    elif period > 0:
-        regime = "P"
-    else:
-        regime = "Q"
-    return Classification(regime=regime, period=period, active_per_period=a_pp,
-                          reverse_per_period=r_pp, stick_fraction=stick_fraction,
-                          lyapunov=float(lyapunov), chaotic=bool(chaotic),
-                          intensity=float(np.sum(impulse * impulse) / periods),
-                          mean_impulse_active=ma, rms_impulse_active=ra,
-                          mean_impulse_reverse=mr, rms_impulse_reverse=rr)
+    """Classify a window from its impacts, section samples, stick time and exponent
+    (:func:`classify_batch` with one window: the rules live in one place)."""
+    impulse = np.asarray(impulse, dtype=np.float64).ravel()
+    c = classify_batch(np.array([len(impulse)]), impulse, np.asarray(flank).ravel(),
+                       np.asarray(strobe_x, dtype=np.float64).reshape(1, -1),
+                       np.asarray(strobe_v, dtype=np.float64).reshape(1, -1), periods,
+                       np.array([stick_time]), np.array([lyapunov]), np.array([j]))
+    return Classification(
+        regime=REGIME_LETTERS[c["regime"][0]], period=int(c["period"][0]),
+        chaotic=bool(c["chaotic"][0]),
+        **{k: float(c[k][0]) for k in ("active_per_period", "reverse_per_period", "stick_fraction",
+                                       "lyapunov", "intensity", "mean_impulse_active",
+                                       "rms_impulse_active", "mean_impulse_reverse",
+                                       "rms_impulse_reverse")})
 
 
 @njit(cache=True, nogil=True)
@@ -197,7 +164,7 @@ def _pairwise_sum(a, lo, n):
 
     numpy adds runs of up to 128 values in eight interleaved partial sums and splits longer
     runs in two (the first part a multiple of 8, about half), adding the halves' sums;
-    following that order keeps :func:`classify_batch` identical to :func:`classify_arrays`.
+    following that order gives the numbers of the numpy expressions of the definitions.
     The split is walked with explicit stacks: numba cannot cache recursive functions.
     """
     if n <= 128:

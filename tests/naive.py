@@ -10,6 +10,8 @@ none of its kernels, bounds or tolerances.
   applies the same impact law, ``v_stick`` rule and stick/release rule as the model, so it
   agrees with the solver on every contact that is not grazing; a grazing contact (the gap dips
   below zero for less than one grid step) is exactly what it may miss.
+* :func:`classify_reference` applies the classification definitions of ``rattle_core.classify``
+  with plain numpy expressions, one window at a time (the library runs them compiled).
 * :func:`ivp_simulate` integrates ``Λ ẍ = −1`` with ``scipy.integrate.solve_ivp`` (DOP853,
   tight tolerances) and terminal events on both gaps.  It handles flights and impacts only, and
   stops with an error at the first contact slow enough to start a stick phase.
@@ -353,3 +355,57 @@ def ivp_simulate(lam, r, j, h, phi, v_stick, t0, x0, v0, t_end, rtol=1e-12, atol
         stick_intervals=np.zeros((0, 2)), seg_t=np.array(seg_t),
         seg_kind=np.zeros(n, dtype=np.int8), seg_x=np.array(seg_x), seg_v=np.array(seg_v),
         t_end=float(t_end))
+
+
+def _reference_period(sx, sv, scale, max_period, tol):
+    m = len(sx)
+    if m < 4:
+        return 0
+    start = m // 2
+    thr = tol * (1.0 + scale)
+    for n in range(1, min(max_period, m - start - 1) + 1):
+        if (np.max(np.abs(sx[start + n:] - sx[start:m - n])) <= thr
+                and np.max(np.abs(sv[start + n:] - sv[start:m - n])) <= thr):
+            return n
+    return 0
+
+
+def classify_reference(impulse, flank, strobe_x, strobe_v, periods, stick_time, lyapunov, j,
+                       *, max_period, tol, chaos) -> dict:
+    """Regime, period and rattle metrics of one window, straight from the definitions."""
+    periods = max(float(periods), 1e-300)
+    act, rev = flank == 1, flank == -1
+    n_act, n_rev = int(act.sum()), int(rev.sum())
+    stick_fraction = min(1.0, stick_time / (periods * TWO_PI))
+    period = _reference_period(strobe_x, strobe_v, j, max_period, tol)
+    chaotic = period == 0 and lyapunov > chaos
+    a_pp, r_pp = n_act / periods, n_rev / periods
+
+    def stats(sel):
+        if not sel.any():
+            return 0.0, 0.0
+        a = np.abs(impulse[sel])
+        return float(a.mean()), float(np.sqrt(np.mean(a * a)))
+
+    ma, ra = stats(act)
+    mr, rr = stats(rev)
+    if n_act + n_rev == 0 and stick_fraction > 0.99:
+        regime = "A"
+    elif chaotic:
+        regime = "D"
+    elif stick_fraction > 0:
+        regime = "B"
+    elif period == 1 and n_rev == 0 and abs(a_pp - 1) < 0.02:
+        regime = "C"
+    elif period == 1 and abs(a_pp - 1) < 0.02 and abs(r_pp - 1) < 0.02:
+        regime = "E"
+    elif period > 0:
+        regime = "P"
+    else:
+        regime = "Q"
+    return {"regime": regime, "period": period, "active_per_period": a_pp,
+            "reverse_per_period": r_pp, "stick_fraction": stick_fraction,
+            "lyapunov": float(lyapunov), "chaotic": bool(chaotic),
+            "intensity": float(np.sum(impulse * impulse) / periods),
+            "mean_impulse_active": ma, "rms_impulse_active": ra,
+            "mean_impulse_reverse": mr, "rms_impulse_reverse": rr}

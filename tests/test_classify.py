@@ -7,9 +7,11 @@ import numpy as np
 import pytest
 
 from rattle_core import RattleParams, classify, contact_boundary, excitation, simulate
-from rattle_core.classify import (REGIME_LETTERS, Classification, classify_arrays,
-                                  classify_batch, detect_period, one_sided_impulse,
+from rattle_core.classify import (LYAP_CHAOS, MAX_PERIOD, PERIOD_TOL, REGIME_LETTERS,
+                                  Classification, classify_arrays, classify_batch,
+                                  detect_period, one_sided_impulse,
                                   one_sided_orbits, period1_limits_harmonic)
+from naive import classify_reference
 from rattle_core.excitation import TWO_PI
 
 TWO_HARMONICS = [
@@ -185,8 +187,9 @@ def _varied_windows(record):
 
 @pytest.mark.parametrize("record", [100, 41, 3])
 def test_classify_batch_equals_classify_arrays(record):
-    """The compiled batch classification gives exactly the numbers of ``classify_arrays``,
-    field by field, on windows of every regime, sticking, chaotic and borderline ones."""
+    """The compiled batch classification gives exactly the numbers of ``classify_arrays`` and
+    of the slow numpy reference (``tests/naive.py``), field by field, on windows of every
+    regime, sticking, chaotic and borderline ones."""
     wins = _varied_windows(record)
     imp, fl, sx, sv, st, ly, j = wins[13]
     sx = sx.copy()
@@ -194,6 +197,9 @@ def test_classify_batch_equals_classify_arrays(record):
     wins.append((imp, fl, sx, sv, st, ly, j))
     ref = [classify_arrays(imp, fl, sx, sv, record, st, ly, j)
            for imp, fl, sx, sv, st, ly, j in wins]
+    slow = [classify_reference(imp, fl, sx, sv, record, st, ly, j, max_period=MAX_PERIOD,
+                               tol=PERIOD_TOL, chaos=LYAP_CHAOS)
+            for imp, fl, sx, sv, st, ly, j in wins]
     got = classify_batch(np.array([len(w[0]) for w in wins]), np.concatenate([w[0] for w in wins]),
                          np.concatenate([w[1] for w in wins]), np.stack([w[2] for w in wins]),
                          np.stack([w[3] for w in wins]), record, np.array([w[4] for w in wins]),
@@ -210,6 +216,9 @@ def test_classify_batch_equals_classify_arrays(record):
                 continue
             have = got[field][i]
             assert have == want or (np.isnan(want) and np.isnan(have)), (i, field, have, want)
+            # and both are the definitions' plain numpy expressions, bit for bit
+            plain = slow[i][field]
+            assert have == plain or (np.isnan(plain) and np.isnan(have)), (i, field, have, plain)
 
 
 def test_classify_batch_checks_counts():
