@@ -235,15 +235,7 @@ EMPTY = {k: [] for k in ("image", "x", "y", "dw", "dh", "xv", "yv", "regime", "p
 
 def map_csv(result: Any) -> str:
     """One row per grid point: the two axes, then every field (regime as its letter)."""
-    import pandas as pd
-
-    letters = {v: k for k, v in REGIME_CODES.items()}
-    gx, gy = np.meshgrid(result.x_values, result.y_values)
-    df = pd.DataFrame({result.x_name: gx.ravel(), result.y_name: gy.ravel()})
-    for k in sorted(result.fields, key=lambda k: (k != "regime", k != "attractor")):
-        v = result.fields[k]
-        df[k] = [letters.get(int(c), "") for c in v.ravel()] if k == "regime" else v.ravel()
-    return df.to_csv(index=False)
+    return result.table().to_csv(index=False)
 
 
 class MapsPanel(FeaturePanel):

@@ -633,7 +633,6 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 def _cmd_map(args: argparse.Namespace, out: Path, png: Path | None, params, phys) -> int:
     """A 2-D regime/intensity map, or basins of attraction, to a file plus PNG."""
     import numpy as np
-    import pandas as pd
 
     maps = _lazy("rattle_core.maps", "2-D maps (rattle sweep --param2)")
     if not args.no_cache:
@@ -669,14 +668,7 @@ def _cmd_map(args: argparse.Namespace, out: Path, png: Path | None, params, phys
         save_map(out, result)
         _user_permissions(out)
     else:
-        codes = {v: k for k, v in maps.REGIME_CODES.items()}
-        gx, gy = np.meshgrid(result.x_values, result.y_values)
-        df = pd.DataFrame({names[0]: gx.ravel(), names[1]: gy.ravel()})
-        for k, v in result.fields.items():
-            if k == "regime":
-                df[k] = [codes.get(int(c), "") for c in v.ravel()]
-            else:
-                df[k] = v.ravel()
+        df = result.table()
         meta = {"kind": result.kind, "x_name": names[0], "y_name": names[1],
                 "params": params.to_dict(), "settings": settings,
                 "attractors": result.attractors}

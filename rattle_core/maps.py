@@ -66,6 +66,18 @@ class MapResult:
     #: Set by :func:`run_map`: the map was read from the disk cache, not computed.
     from_cache: bool = False
 
+    def table(self):
+        """One row per grid point (a DataFrame): the two axes, then every field (regime as its
+        letter)."""
+        import pandas as pd
+        letters = {v: k for k, v in REGIME_CODES.items()}
+        gx, gy = np.meshgrid(self.x_values, self.y_values)
+        df = pd.DataFrame({self.x_name: gx.ravel(), self.y_name: gy.ravel()})
+        for k in sorted(self.fields, key=lambda k: (k != "regime", k != "attractor")):
+            v = self.fields[k]
+            df[k] = [letters.get(int(c), "") for c in v.ravel()] if k == "regime" else v.ravel()
+        return df
+
 
 def _grid_args(name: str, values, label: str) -> np.ndarray:
     try:
@@ -404,16 +416,11 @@ def _flat_map(params: RattleParams, name: str, flat: np.ndarray, shape: tuple[in
         from .sweep import sweep as run
     res = run(params, name, flat, **common)
     summ = res.summary
-    fields = {k: np.full(flat.size, np.nan) for k in
-              ("period", "lyapunov", "active_per_period", "reverse_per_period", "stick_fraction",
-               "intensity")}
-    fields["regime"] = np.full(flat.size, -1, dtype=np.int8)
+    fields = _fields([], flat.size)
     m = len(summ)
-    for k in fields:
-        if k == "regime":
-            fields[k][:m] = summ["regime"].map(REGIME_CODES).to_numpy(dtype=np.int8)
-        else:
-            fields[k][:m] = summ[k].to_numpy(dtype=np.float64)
+    fields["regime"][:m] = summ["regime"].map(REGIME_CODES).to_numpy(dtype=np.int8)
+    for k in _FLOAT_FIELDS:
+        fields[k][:m] = summ[k].to_numpy(dtype=np.float64)
     return MapResult(kind="regime", x_name=name, y_name=name, x_values=flat, y_values=flat,
                      params=params, settings=dict(res.settings),
                      fields={k: v.reshape(shape) for k, v in fields.items()},
