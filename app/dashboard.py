@@ -690,14 +690,7 @@ class Dashboard:
 
     def rpm_diagram(self, diagram: background.Diagram) -> background.Diagram:
         """A sweep of Λ (or j) along an engine-speed sweep, redrawn against rpm."""
-        phys = self.physical
-        v = diagram.value
-        if v.size == 0:
-            rpm = v
-        elif diagram.name == "lam":
-            rpm = units.rpm_from_lam(phys, v)
-        else:  # j ∝ rpm² with acceleration amplitudes held
-            rpm = phys.rpm * np.sqrt(v / float(units.j_from_rpm(phys, phys.rpm)))
+        rpm = units.rpm_from_sweep(self.physical, diagram.name, diagram.value)
         return background.Diagram(name="rpm", value=np.asarray(rpm, dtype=np.float64),
                                   impulse=diagram.impulse, flank=diagram.flank,
                                   source=diagram.source, cancelled=diagram.cancelled)

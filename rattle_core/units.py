@@ -571,6 +571,20 @@ def rpm_sweep(phys: PhysicalParams, rpm: Any) -> tuple[str, np.ndarray]:
     return "j", j_from_rpm(phys, rpm)
 
 
+def rpm_from_sweep(phys: PhysicalParams, name: str, values: Any) -> np.ndarray:
+    """Inverse of :func:`rpm_sweep`: the engine speeds of a sweep of ``lam`` (displacement
+    amplitudes held, :func:`rpm_from_lam`) or of ``j`` (acceleration amplitudes held,
+    ``j ∝ rpm²``)."""
+    vals = np.asarray(values, dtype=np.float64)
+    if name == "lam":
+        return rpm_from_lam(phys, vals) if vals.size else vals
+    if name == "j" and phys.excitation == "acceleration":
+        return phys.rpm * np.sqrt(vals / float(j_from_rpm(phys, phys.rpm)))
+    raise ValueError(f"a sweep of {name!r} is not an engine-speed sweep of this gear "
+                     f"({phys.excitation} amplitudes held): rpm_sweep gives "
+                     f"{rpm_sweep(phys, phys.rpm)[0]!r}")
+
+
 def example() -> PhysicalParams:
     """A small passenger-car idle gear at 1500 rpm, used in docs and tests.
 

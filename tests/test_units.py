@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 
 from rattle_core import RattleParams, simulate
 from rattle_core.units import (PhysicalParams, backlash_from_angle, backlash_from_um, example,
-                               j_from_rpm, lam_from_rpm, omega_from_rpm, rpm_from_lam, rpm_sweep,
-                               wrap_deg)
+                               j_from_rpm, lam_from_rpm, omega_from_rpm, rpm_from_lam,
+                               rpm_from_sweep, rpm_sweep, wrap_deg)
 
 REL = 1e-12
 
@@ -109,6 +109,9 @@ def test_lam_grows_as_rpm_squared():
     name, values = rpm_sweep(phys, rpm)
     assert name == "lam" and values == pytest.approx(lam, rel=1e-15)
     assert rpm_from_lam(phys, lam) == pytest.approx(rpm, rel=1e-12)
+    assert rpm_from_sweep(phys, name, values) == pytest.approx(rpm, rel=1e-12)
+    with pytest.raises(ValueError, match="'lam'"):
+        rpm_from_sweep(phys, "j", values)
 
 
 def test_acceleration_held_sweeps_j_not_lam():
@@ -122,6 +125,7 @@ def test_acceleration_held_sweeps_j_not_lam():
     assert name == "j"
     assert values == pytest.approx([p.j for p in rebuilt], rel=1e-12)
     assert values[1] / values[0] == pytest.approx(4.0, rel=1e-12)
+    assert rpm_from_sweep(acc, name, values) == pytest.approx(rpm, rel=1e-12)
     with pytest.raises(ValueError, match="rpm"):
         rpm_from_lam(acc, [1.0])
 
