@@ -95,20 +95,6 @@ def _url_um(backlash: float) -> str:
     return _url_number(um)
 
 
-def _as_kind(p: PhysicalParams, kind: str) -> PhysicalParams:
-    """The same excitation described by displacements or by accelerations."""
-    if kind == p.excitation:
-        return p
-    if kind == "acceleration":
-        k = range(1, len(p.amplitudes) + 1)
-        amps = tuple(a * (i * p.omega) ** 2 for i, a in zip(k, p.amplitudes))
-        phases = tuple(wrap_deg(v - 180.0) for v in p.phases_deg)
-    else:
-        amps = tuple(float(a) for a in p.displacement_amplitudes)
-        phases = tuple(float(v) for v in p.displacement_phases_deg)
-    return p.replace(excitation=kind, amplitudes=amps, phases_deg=phases)
-
-
 def same_model(a: RattleParams, b: RattleParams, rel: float = 1e-9) -> bool:
     """Whether two parameter sets describe the same model up to rounding (phases modulo 360°)."""
     if a.n_harmonics != b.n_harmonics:
@@ -474,7 +460,7 @@ class UnitsPanel(FeaturePanel):
             else:
                 reject("b_unit", f"b_unit = {query['b_unit']!r}; allowed: um or deg. "
                                  f"Kept {self.backlash_unit.value}")
-        base = _as_kind(example, kind)
+        base = example.as_excitation(kind)
         amp_rng = units.THETA_RANGE if kind == "displacement" else units.ALPHA_RANGE
         amp_unit = "rad" if kind == "displacement" else "rad/s²"
         checks = {  # key: (field default, range, lo_open, unit)
@@ -600,7 +586,7 @@ class UnitsPanel(FeaturePanel):
         if kind == p.excitation:
             return
         try:
-            cand = _as_kind(p, kind)
+            cand = p.as_excitation(kind)
         except ValueError as exc:
             self._error("amp1", f"These amplitudes cannot be given as {kind}s: {exc}")
             self._to_widgets()

@@ -414,6 +414,22 @@ class PhysicalParams:
         """A validated copy with some fields changed."""
         return dataclasses.replace(self, **changes)
 
+    def as_excitation(self, kind: ExcitationKind) -> "PhysicalParams":
+        """The same excitation given as displacements or as accelerations
+        (``α_k = θ_k (k ω)²``, ``φ_k^α = φ_k − 180°``): the dimensionless model is unchanged."""
+        if kind not in _KINDS:
+            raise ValueError(f"excitation = {kind!r}; allowed: {', '.join(_KINDS)}")
+        if kind == self.excitation:
+            return self
+        if kind == "acceleration":
+            k = np.arange(1, len(self.amplitudes) + 1, dtype=np.float64)
+            amps = tuple(float(a) for a in np.asarray(self.amplitudes) * (k * self.omega) ** 2)
+            phases = tuple(wrap_deg(v - 180.0) for v in self.phases_deg)
+        else:
+            amps = tuple(float(a) for a in self.displacement_amplitudes)
+            phases = tuple(float(v) for v in self.displacement_phases_deg)
+        return self.replace(excitation=kind, amplitudes=amps, phases_deg=phases)
+
     # ----- dimensionless results back to physical units --------------------------------
     def time(self, t: Any) -> np.ndarray | float:
         """Physical time ``t_phys = t / ω`` [s] of dimensionless times ``t``."""

@@ -252,3 +252,21 @@ def test_bad_rpm_arrays_and_solve_for():
     acc = phys.replace(excitation="acceleration", amplitudes=(100.0, 10.0))
     with pytest.raises(ValueError, match="does not depend on engine speed"):
         PhysicalParams.from_dimensionless(acc.to_dimensionless(), acc, solve_for="rpm")
+
+
+def test_as_excitation_changes_the_description_not_the_model():
+    """Displacements and accelerations describe the same excitation: Λ, j, h_k, φ_k unchanged."""
+    phys = example().replace(amplitudes=(5e-4, 1.25e-4), phases_deg=(0.0, 45.0))
+    acc = phys.as_excitation("acceleration")
+    assert acc.excitation == "acceleration"
+    assert acc.amplitudes[1] == pytest.approx(1.25e-4 * (2 * phys.omega) ** 2, rel=1e-14)
+    assert acc.phases_deg[1] == pytest.approx(-135.0)
+    a, b = phys.to_dimensionless(), acc.to_dimensionless()
+    assert (b.lam, b.j) == pytest.approx((a.lam, a.j), rel=1e-12)
+    assert b.amplitudes == pytest.approx(a.amplitudes, rel=1e-12)
+    assert b.phases_deg == pytest.approx(a.phases_deg, abs=1e-9)
+    back = acc.as_excitation("displacement")
+    assert back.amplitudes == pytest.approx(phys.amplitudes, rel=1e-12)
+    assert phys.as_excitation("displacement") is phys
+    with pytest.raises(ValueError, match="excitation"):
+        phys.as_excitation("velocity")
