@@ -29,13 +29,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import panel as pn
-from scipy.io import wavfile
 
 from rattle_core.excitation import TWO_PI
 from rattle_core.params import check_range
 from rattle_core.sound import (DEFAULT_EXCITATION_HZ, DEFAULT_MODES, DEFAULT_SAMPLE_RATE,
                                DEFAULT_TAIL, EXCITATION_HZ_RANGE, HousingMode, parse_modes,
-                               synthesize, to_int16)
+                               synthesize, write_wav)
 from rattle_core.units import PhysicalParams
 
 from .panel_base import FeaturePanel, guard
@@ -377,7 +376,7 @@ class SoundPanel(FeaturePanel):
         if self.signal is None:
             raise ValueError("no sound has been rendered yet; press Render / play")
         buf = io.BytesIO()
-        wavfile.write(buf, self.sample_rate, to_int16(self.signal))
+        write_wav(buf, self.signal, self.sample_rate)
         return buf.getvalue()
 
     def _wav(self) -> io.BytesIO:

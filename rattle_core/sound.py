@@ -50,7 +50,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-from typing import Iterable, Literal, Sequence
+from typing import BinaryIO, Iterable, Literal, Sequence
 
 import numpy as np
 from scipy.io import wavfile
@@ -305,13 +305,13 @@ def to_int16(signal: np.ndarray) -> np.ndarray:
     return np.round(s * 32767.0).astype(np.int16)
 
 
-def write_wav(path: str | os.PathLike, signal: np.ndarray, sample_rate: int) -> None:
+def write_wav(path: str | os.PathLike | BinaryIO, signal: np.ndarray, sample_rate: int) -> None:
     """Write a mono 16-bit PCM WAV file with :func:`scipy.io.wavfile.write`.
 
     Parameters
     ----------
-    path : path-like
-        Destination file.
+    path : path-like or binary file object
+        Destination file (a download served from memory passes a ``BytesIO``).
     signal : ndarray
         Float samples in [−1, 1] (as returned by :func:`synthesize`); clipped beyond.
     sample_rate : int
@@ -323,7 +323,7 @@ def write_wav(path: str | os.PathLike, signal: np.ndarray, sample_rate: int) -> 
         raise ValueError(f"signal must be one-dimensional (mono), got shape {s.shape}")
     if not np.all(np.isfinite(s)):
         raise ValueError("signal must be finite")
-    wavfile.write(os.fspath(path), sample_rate, to_int16(s))
+    wavfile.write(path if hasattr(path, "write") else os.fspath(path), sample_rate, to_int16(s))
 
 
 __all__ = ["HousingMode", "DEFAULT_MODES", "DEFAULT_EXCITATION_HZ", "DEFAULT_SAMPLE_RATE",
