@@ -2,7 +2,8 @@
 
 * Browser tests (``@pytest.mark.ui``) drive Debian's Chromium through pytest-playwright, since
   Playwright cannot download its own browser here; they are skipped, with the reason, when
-  Chromium or Playwright is missing (``scripts/test.sh`` installs both).
+  Chromium or Playwright is missing, except under ``scripts/test.sh`` (which installs both and
+  sets ``RATTLE_REQUIRE_UI=1``), where a missing browser is an error.
 * ``dash`` is one dashboard session built without a server or browser (the update path, the
   feature panels), torn down like a closed session.
 * ``dashboard_server`` serves the real dashboard once per test session on a free port and
@@ -37,6 +38,9 @@ def pytest_collection_modifyitems(config, items):
     reason = _ui_unavailable()
     if reason is None:
         return
+    if os.environ.get("RATTLE_REQUIRE_UI") == "1" and any("ui" in item.keywords for item in items):
+        # the project's test command installs the browser: a skip there would hide a failure
+        raise pytest.UsageError(f"browser tests cannot run: {reason}")
     skip = pytest.mark.skip(reason=reason)
     for item in items:
         if "ui" in item.keywords:
