@@ -75,7 +75,7 @@ def diagram_from_result(result: Any, source: str) -> Diagram:
 def _assets() -> tuple:
     """Every shipped diagram, loaded once per process (they never change while it runs)."""
     try:
-        from rattle_core import cache
+        from rattle_core.store import cache
     except ImportError:
         return ()
     out = []
@@ -104,10 +104,10 @@ def run_sweep(req: SweepRequest, progress: Callable[[int, int], Any] | None = No
               cancel: Callable[[], bool] | None = None) -> Diagram:
     """Compute (or fetch from the disk cache) one diagram, in the calling thread."""
     try:
-        from rattle_core.cache import cached_sweep as _sweep
+        from rattle_core.store.cache import cached_sweep as _sweep
         source = "computed (disk cache)"
     except ImportError:
-        from rattle_core.sweep import sweep as _sweep
+        from rattle_core.batch.sweep import sweep as _sweep
         source = "computed"
     res = _sweep(req.params, req.name, req.as_array(), transient=req.transient, record=req.record,
                  mode="fresh", progress=progress, cancel=cancel)

@@ -26,8 +26,8 @@ import panel as pn
 from bokeh.events import RangesUpdate, Reset, Tap
 
 from rattle_core import SolverError, classify, simulate, units
-from rattle_core.classify import contact_boundary
-from rattle_core.excitation import excitation
+from rattle_core.analysis.classify import contact_boundary
+from rattle_core.model.excitation import excitation
 
 from . import background, maps_panel, sound_panel, units_panel, views
 from .panel_base import guard

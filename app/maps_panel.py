@@ -2,10 +2,10 @@
 
 An NVH engineer picks two axes (Λ, r, j, H₂/H₁, φ₂; engine speed and drag torque when the
 dashboard works in physical units) or the start state (basins), a range and a number of points
-per axis, and presses Compute. The map runs through :func:`rattle_core.maps.run_map`:
+per axis, and presses Compute. The map runs through :func:`rattle_core.batch.maps.run_map`:
 
 * on this panel's own worker thread, never on the server's event loop, so sliders stay live
-  (parallel kernel launches are serialised in ``rattle_core.sweep``, so a map may run while a
+  (parallel kernel launches are serialised in ``rattle_core.batch.sweep``, so a map may run while a
   bifurcation diagram does); progress and the result come back through the session's document;
 * cancelled by Cancel, by a new request, and when the session closes;
 * from the disk cache when the same map ran before (the status line says so, and how long it
@@ -44,9 +44,9 @@ from bokeh.models import (ColorBar, ColumnDataSource, HoverTool, LinearColorMapp
 from bokeh.palettes import Category20, Magma256, Viridis256
 from bokeh.plotting import figure
 
-from rattle_core import maps
-from rattle_core.excitation import excitation
-from rattle_core.maps import REGIME_CODES, REGIME_COLOURS
+from rattle_core.batch import maps
+from rattle_core.model.excitation import excitation
+from rattle_core.batch.maps import REGIME_CODES, REGIME_COLOURS
 
 from .background import CancellableJob
 from .panel_base import FeaturePanel

@@ -1,13 +1,13 @@
 """The rattle sound of the current trajectory: a card in the Explorer tab.
 
-The card plays :func:`rattle_core.sound.synthesize` of ``dashboard.tr`` (its first N periods),
+The card plays :func:`rattle_core.analysis.sound.synthesize` of ``dashboard.tr`` (its first N periods),
 normalised to a peak of 0.99 because ``pn.pane.Audio`` turns floats into int16 as
 ``int16(x × 32768)``, without clipping. It offers the sound's own settings (periods to play,
 excitation frequency, housing modes, polarity, sample rate), a 16-bit WAV download and one line
 saying what the user should hear.
 
 Time scale: in dimensionless mode the fundamental excitation frequency is the one set here; in
-physical-units mode (``dashboard.physical`` is a :class:`~rattle_core.units.PhysicalParams`) it
+physical-units mode (``dashboard.physical`` is a :class:`~rattle_core.model.units.PhysicalParams`) it
 follows the engine speed, ``f = order × rpm / 60``, and the card says so.
 
 Cost: ``synthesize`` takes about 20 ms for the default 200 periods at 50 Hz and 44.1 kHz
@@ -30,12 +30,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import panel as pn
 
-from rattle_core.excitation import TWO_PI
-from rattle_core.params import check_range
-from rattle_core.sound import (DEFAULT_EXCITATION_HZ, DEFAULT_MODES, DEFAULT_SAMPLE_RATE,
+from rattle_core.model.excitation import TWO_PI
+from rattle_core.model.params import check_range
+from rattle_core.analysis.sound import (DEFAULT_EXCITATION_HZ, DEFAULT_MODES, DEFAULT_SAMPLE_RATE,
                                DEFAULT_TAIL, EXCITATION_HZ_RANGE, HousingMode, parse_modes,
                                synthesize, write_wav)
-from rattle_core.units import PhysicalParams
+from rattle_core.model.units import PhysicalParams
 
 from .panel_base import FeaturePanel, guard
 
@@ -58,7 +58,7 @@ SETTINGS = ("periods", "excitation", "modes", "polarity", "sample_rate")
 
 
 def format_modes(modes: tuple[HousingMode, ...]) -> str:
-    """Modes as the text :func:`~rattle_core.sound.parse_modes` reads back."""
+    """Modes as the text :func:`~rattle_core.analysis.sound.parse_modes` reads back."""
     return ", ".join(f"{m.freq_hz:g}:{m.damping:g}:{m.gain:g}" for m in modes)
 
 

@@ -18,7 +18,7 @@ from typing import Any
 import param
 
 from rattle_core import RattleParams
-from rattle_core.params import (AMPLITUDE_RANGE, J_RANGE, LAM_RANGE, MAX_HARMONICS,
+from rattle_core.model.params import (AMPLITUDE_RANGE, J_RANGE, LAM_RANGE, MAX_HARMONICS,
                                 PHASE_RANGE_DEG, R_RANGE, V_STICK_RANGE, check_range,
                                 paper_to_core_phases)
 
@@ -74,7 +74,7 @@ BIF_PARAMS = ("lam", "phi2", "rpm")
 
 
 def paper_phase2(phi_paper_deg: float) -> float:
-    """φ₂ in the core's convention for the paper's φ₂ (``rattle_core.params.paper_to_core_phases``)."""
+    """φ₂ in the core's convention for the paper's φ₂ (``rattle_core.model.params.paper_to_core_phases``)."""
     return paper_to_core_phases((0.0, phi_paper_deg))[1]
 
 

@@ -41,8 +41,8 @@ from typing import TYPE_CHECKING, Any
 import panel as pn
 
 from rattle_core import RattleParams, units
-from rattle_core.params import check_range
-from rattle_core.units import PhysicalParams, wrap_deg
+from rattle_core.model.params import check_range
+from rattle_core.model.units import PhysicalParams, wrap_deg
 
 from .panel_base import FeaturePanel
 from .state import apply_values, parse_harmonics

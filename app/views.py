@@ -26,7 +26,7 @@ from bokeh.models import (ColumnDataSource, DataRange1d, HoverTool, Legend, Lege
 from bokeh.plotting import figure
 
 from rattle_core import Trajectory
-from rattle_core.excitation import TWO_PI
+from rattle_core.model.excitation import TWO_PI
 
 ACTIVE_COLOR = "#c0392b"
 REVERSE_COLOR = "#1f5fa8"
@@ -186,7 +186,7 @@ def rpm_overlay_lines(phys, x_range: tuple[float, float], lam_c: float | None,
                       newton_seconds: bool = False, orders: int = 4) -> dict:
     """The overlays of :func:`overlay_lines` for a diagram against engine speed.
 
-    Along an engine-speed sweep of ``phys`` (a ``rattle_core.units.PhysicalParams``), Λ(rpm)
+    Along an engine-speed sweep of ``phys`` (a ``rattle_core.model.units.PhysicalParams``), Λ(rpm)
     is ``units.lam_from_rpm``, so the one-sided period-n impulses are ``2πn/Λ(rpm)``, times
     ``m ω H₁`` in N·s; the contact boundary Λ_c sits at ``units.rpm_from_lam(Λ_c)`` when Λ
     moves with speed (displacement amplitudes held).

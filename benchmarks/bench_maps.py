@@ -18,8 +18,8 @@ import time
 import numpy as np
 
 from rattle_core import RattleParams
-from rattle_core.maps import _map_chunk, regime_map
-from rattle_core.sweep import _run_chunk
+from rattle_core.batch.maps import _map_chunk, regime_map
+from rattle_core.batch.sweep import _run_chunk
 
 
 def main() -> None:

@@ -3,7 +3,7 @@
 Prints, after compilation:
 
 1. The Figure 2 sweep (harmonic, r = 0.65, j = 8): 1000 values of Λ in [0.5, 4], each
-   500 transient + 200 recorded periods, through :func:`rattle_core.sweep` (kernel, impact
+   500 transient + 200 recorded periods, through :func:`rattle_core.batch.sweep` (kernel, impact
    table and per-value classification).  Wall time with all numba threads and with one
    thread (``numba.set_num_threads(1)``), and the speed-up.  Target: ≤ 3 s.
 2. A baseline: the same model integrated by ``scipy.integrate.solve_ivp`` (DOP853) with
@@ -13,7 +13,7 @@ Prints, after compilation:
    flights and impacts only (no chatter or stick phases), and regime E has the fewest events
    per period, so the extrapolation favours the baseline.
 3. A 2-D regime map, 200 × 200 points of Λ ∈ [0.5, 4] × φ2 ∈ [0°, 360°) (core convention,
-   H2/H1 = 0.25), each 300 + 100 periods, through :func:`rattle_core.maps.regime_map`.
+   H2/H1 = 0.25), each 300 + 100 periods, through :func:`rattle_core.batch.maps.regime_map`.
    Target: ≤ 30 s.
 
 Usage: ``python benchmarks/bench_sweep.py [--repeat N] [--skip-grid | --grid-only]``.
@@ -168,7 +168,7 @@ def main(argv=None) -> int:
         line("ratio baseline / rattle_core (all threads)", f"{t_ivp_full / t_all:,.0f} ×")
 
     if not args.skip_grid:
-        from rattle_core.maps import regime_map
+        from rattle_core.batch.maps import regime_map
         base2 = RattleParams(lam=1.0, amplitudes=(1.0, 0.25), phases_deg=(0.0, 0.0))
         lam_v = np.linspace(0.5, 4.0, GRID_N)
         phi_v = np.linspace(0.0, 360.0, GRID_N, endpoint=False)

@@ -1,21 +1,29 @@
 """Rattle Explorer's computational core: exact event-driven gear-rattle dynamics.
 
-Layers, each importing only those before it:
-``params`` → ``excitation`` → ``events`` → ``solver`` → ``trajectory`` → ``sections``,
-``classify`` → ``sweep`` → ``cache``.
+Layers, each importing only those listed before it (``docs/model.md`` is the specification)::
+
+    model     params, excitation, units
+    solver    events, kernel, trajectory
+    analysis  sections, classify, sound
+    batch     sweep, maps
+    store     cache
+    paper     cases
+
+The names below are the public entry points, importable from ``rattle_core`` itself.
 """
 from . import jitcache
 
 jitcache.refresh()
 
-from .classify import Classification, classify, contact_boundary, one_sided_impulse
-from .excitation import excitation
-from .params import RattleParams
-from .sections import impact_map, poincare
-from .sweep import SweepResult
-from .sweep import sweep as sweep
-from .trajectory import SOLVER_VERSION, SolverError, Trajectory, simulate
+from .analysis.classify import Classification, classify, contact_boundary, one_sided_impulse
+from .analysis.sections import impact_map, poincare
+from .batch.sweep import SweepResult
+from .batch.sweep import sweep as sweep
+from .model import units
+from .model.excitation import excitation
+from .model.params import RattleParams
+from .solver.trajectory import SOLVER_VERSION, SolverError, Trajectory, simulate
 
 __all__ = ["RattleParams", "Trajectory", "simulate", "excitation", "SolverError", "SOLVER_VERSION",
            "poincare", "impact_map", "classify", "Classification", "contact_boundary",
-           "one_sided_impulse", "sweep", "SweepResult"]
+           "one_sided_impulse", "sweep", "SweepResult", "units"]

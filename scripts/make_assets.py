@@ -2,9 +2,10 @@
 
 Writes, from the current solver (no cache is read):
 
-* ``assets/paper/fig2.npz``, ``fig4.npz``, ``fig5.npz``, ``fig6.npz``: the bifurcation sweeps
-  of :data:`rattle_core.paper.PRESETS`, compact (float32 impulses and phases) and keyed with
-  their content key, so :func:`rattle_core.paper.paper_sweep` serves them only while they
+* ``rattle_core/assets/paper/fig2.npz``, ``fig4.npz``, ``fig5.npz``, ``fig6.npz`` (package
+  data): the bifurcation sweeps
+  of :data:`rattle_core.paper.cases.PRESETS`, compact (float32 impulses and phases) and keyed with
+  their content key, so :func:`rattle_core.paper.cases.paper_sweep` serves them only while they
   match the solver;
 * ``assets/paper/fig2.png`` … ``fig8.png``: the paper's figures, for the README;
 * ``docs/phase_convention.md``: which reading of the paper's phases reproduces its claims.
@@ -20,12 +21,14 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+#: The README's pictures of the paper's figures.
+FIGURES_DIR = ROOT / "assets" / "paper"
 sys.path.insert(0, str(ROOT))
 
-from rattle_core.cache import ASSETS_DIR, save_result  # noqa: E402
-from rattle_core.paper import (PRESETS, SWEEP_CASES, evidence_markdown,  # noqa: E402
+from rattle_core.store.cache import ASSETS_DIR, save_result  # noqa: E402
+from rattle_core.paper.cases import (PRESETS, SWEEP_CASES, evidence_markdown,  # noqa: E402
                                phase_convention_evidence, write_paper_figures)
-from rattle_core.sweep import sweep  # noqa: E402
+from rattle_core.batch.sweep import sweep  # noqa: E402
 
 
 def main(argv=None) -> int:
@@ -46,7 +49,7 @@ def main(argv=None) -> int:
     # never from an older cache entry.
     with tempfile.TemporaryDirectory() as tmp:
         t = time.perf_counter()
-        paths = write_paper_figures(ASSETS_DIR, use_assets=True, evidence=False,
+        paths = write_paper_figures(FIGURES_DIR, use_assets=True, evidence=False,
                                     cache_directory=tmp)
         for p in paths:
             print(f"{Path(p).relative_to(ROOT)}: {Path(p).stat().st_size / 1e3:.0f} kB")

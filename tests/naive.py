@@ -10,7 +10,7 @@ none of its kernels, bounds or tolerances.
   applies the same impact law, ``v_stick`` rule and stick/release rule as the model, so it
   agrees with the solver on every contact that is not grazing; a grazing contact (the gap dips
   below zero for less than one grid step) is exactly what it may miss.
-* :func:`classify_reference` applies the classification definitions of ``rattle_core.classify``
+* :func:`classify_reference` applies the classification definitions of ``rattle_core.analysis.classify``
   with plain numpy expressions, one window at a time (the library runs them compiled).
 * :func:`ivp_simulate` integrates ``Λ ẍ = −1`` with ``scipy.integrate.solve_ivp`` (DOP853,
   tight tolerances) and terminal events on both gaps.  It handles flights and impacts only, and
@@ -35,7 +35,7 @@ def y_derivative(t, h, phi, m: int = 0):
     """m-th derivative of ``y(t) = Σ_k h_k cos(k t − φ_k)`` (phases in radians).
 
     Uses ``d/dt cos = −sin``, ``d/dt sin = cos`` directly, with no reduction of ``t`` modulo
-    2π, so it shares no code path with ``rattle_core.excitation``.
+    2π, so it shares no code path with ``rattle_core.model.excitation``.
     """
     t = np.asarray(t, dtype=np.float64)
     out = np.zeros_like(t)

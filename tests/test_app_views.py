@@ -17,7 +17,7 @@ import pytest
 
 from app import background, state as st, views
 from rattle_core import RattleParams, classify, simulate
-from rattle_core.excitation import TWO_PI, excitation
+from rattle_core.model.excitation import TWO_PI, excitation
 
 HARMONIC_E = RattleParams(lam=3.3)
 STICKING_B = RattleParams(lam=1.1)

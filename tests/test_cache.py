@@ -9,12 +9,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import rattle_core.cache as cache
-import rattle_core.paper as paper
+import rattle_core.store.cache as cache
+import rattle_core.paper.cases as paper
 from rattle_core import RattleParams, sweep
-from rattle_core.cache import (cache_dir, cached_sweep, find_asset, load_asset, load_result,
+from rattle_core.store.cache import (cache_dir, cached_sweep, find_asset, load_asset, load_result,
                                save_result, sweep_key)
-from rattle_core.paper import PRESETS, SWEEP_CASES
+from rattle_core.paper.cases import PRESETS, SWEEP_CASES
 
 BASE = RattleParams(lam=1.0)
 VALS = np.linspace(1.5, 3.5, 12)

@@ -2,7 +2,7 @@
 
 Protocol (one run per Λ): ``simulate(params, periods=100, transient=300, lyapunov=True)`` from
 the API's default start, at rest in the middle of the backlash at t = 0.  The regime is read from
-the recorded window with simple statistics, computed here rather than by ``rattle_core.classify``
+the recorded window with simple statistics, computed here rather than by ``rattle_core.analysis.classify``
 so that the claim is checked independently of that module:
 
 * **A** permanent contact: the gear is stuck during the window and makes no impact.

@@ -16,11 +16,12 @@ from PIL import Image
 from scipy.io import wavfile
 
 from rattle_core import RattleParams, SolverError, simulate
-from rattle_core import cli
-from rattle_core.cli import build_params, build_parser, main
-from rattle_core.units import PhysicalParams, lam_from_rpm
+from rattle_cli import main as cli
+from rattle_cli.main import build_params, build_parser, main
+from rattle_core.model.units import PhysicalParams, lam_from_rpm
 
-RATTLE = Path(sys.executable).with_name("rattle")
+#: The command as a checkout runs it; the installed script is tested in test_packaging.py.
+RATTLE = [sys.executable, "-m", "rattle_cli"]
 PHYS = ["--inertia", "2e-4", "--radius", "0.04", "--drag-torque", "0.02", "--backlash-um", "160",
         "--rpm", "1500", "--theta-amp", "5e-4,1.25e-4", "--theta-phase", "0,45"]
 PHYS_OBJ = PhysicalParams(inertia=2e-4, radius=0.04, drag_torque=0.02, backlash=160e-6, rpm=1500.0,
@@ -65,7 +66,7 @@ def test_paper_phases_option_converts_to_core_convention():
 
 
 def test_physical_options_build_physical_params():
-    """Physical options give the PhysicalParams of rattle_core.units and its dimensionless twin."""
+    """Physical options give the PhysicalParams of rattle_core.model.units and its dimensionless twin."""
     p, phys = params_of(PHYS + ["--r", "0.7"])
     assert phys == PHYS_OBJ.replace(r=0.7)
     assert p == PHYS_OBJ.replace(r=0.7).to_dimensionless()
@@ -124,8 +125,8 @@ def test_simulate_in_physical_units_adds_seconds_and_newton_seconds(tmp_path, ca
 
 def test_sweep_csv_png_and_npz_match_the_sweep_function(tmp_path, capsys):
     """sweep writes the impacts of sweep() to CSV, a summary, a PNG, and a loadable .npz."""
-    from rattle_core.cache import load_result
-    from rattle_core.sweep import sweep
+    from rattle_core.store.cache import load_result
+    from rattle_core.batch.sweep import sweep
 
     out = tmp_path / "fig.csv"
     argv = ["sweep", "--param", "lam", "--start", "1", "--stop", "3.5", "--num", "12",
@@ -167,7 +168,7 @@ def test_rpm_sweep_is_a_lam_sweep_with_lam_proportional_to_rpm_squared(tmp_path,
 
 def test_two_d_map_matches_regime_map(tmp_path, capsys):
     """--param2 writes one row per grid point with the regimes of maps.regime_map."""
-    from rattle_core.maps import REGIME_CODES, regime_map
+    from rattle_core.batch.maps import REGIME_CODES, regime_map
 
     out = tmp_path / "map.csv"
     code, _, err = run(["sweep", "--h2", "0.25", "--param", "lam", "--values", "1,2,3.3",
@@ -186,7 +187,7 @@ def test_two_d_map_matches_regime_map(tmp_path, capsys):
 
 def test_rpm_by_drag_torque_map_uses_lam_of_each_point(tmp_path, capsys):
     """An rpm × drag torque map runs each point at its own Λ = m H1 ω²/F."""
-    from rattle_core.sweep import sweep
+    from rattle_core.batch.sweep import sweep
 
     out = tmp_path / "rc.csv"
     code, _, err = run(["sweep", *PHYS, "--param", "rpm", "--values", "2000,4000",
@@ -235,7 +236,7 @@ def test_sound_writes_wav_whose_length_follows_engine_speed(tmp_path, capsys):
 
 def test_paper_calls_write_paper_figures_with_progress(tmp_path, capsys, monkeypatch):
     """paper --out DIR hands the directory and a progress callback to write_paper_figures."""
-    import rattle_core.paper as paper
+    import rattle_core.paper.cases as paper
 
     calls = []
 
@@ -351,7 +352,7 @@ def test_bad_arguments_give_one_line_and_exit_2(argv, message, capsys, tmp_path,
 
 def test_solver_limit_exits_1_with_one_line(monkeypatch, capsys, tmp_path):
     """A run stopped by the solver (SolverError) is one line and exit status 1."""
-    import rattle_core.trajectory as trajectory
+    import rattle_core.solver.trajectory as trajectory
 
     def runaway(*args, **kwargs):
         raise SolverError("runaway: more than 10 impacts within one forcing period")
@@ -374,9 +375,9 @@ def test_unexpected_failure_is_still_one_line(monkeypatch, capsys, tmp_path):
 def test_console_script_help_and_error_in_a_subprocess(tmp_path):
     """The installed `rattle` script prints help (exit 0) and a one-line error (exit 2)."""
     env = dict(os.environ, RATTLE_CACHE_DIR=str(tmp_path / "cache"))
-    ok = subprocess.run([str(RATTLE), "--help"], capture_output=True, text=True, timeout=120, env=env)
+    ok = subprocess.run([*RATTLE, "--help"], capture_output=True, text=True, timeout=120, env=env)
     assert ok.returncode == 0 and "simulate" in ok.stdout and "sound" in ok.stdout
-    bad = subprocess.run([str(RATTLE), "sweep", "--values", "1", "--lam", "nan", "--out",
+    bad = subprocess.run([*RATTLE, "sweep", "--values", "1", "--lam", "nan", "--out",
                           str(tmp_path / "x.csv")], capture_output=True, text=True, timeout=120, env=env)
     assert bad.returncode == 2
     assert bad.stderr.splitlines() == [bad.stderr.strip()]

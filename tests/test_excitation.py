@@ -6,7 +6,7 @@ import pytest
 
 from naive import y_derivative
 from rattle_core import RattleParams, excitation
-from rattle_core.excitation import _bounds, _y_derivs, params_excitation
+from rattle_core.model.excitation import _bounds, _y_derivs, params_excitation
 
 TWO_PI = 2.0 * np.pi
 

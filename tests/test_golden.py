@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 from rattle_core import RattleParams, simulate, sweep
-from rattle_core.maps import basin_map, regime_map
+from rattle_core.batch.maps import basin_map, regime_map
 
 DATA = Path(__file__).resolve().parent / "data"
 

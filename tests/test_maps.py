@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from rattle_core import RattleParams, classify, simulate
-from rattle_core.maps import REGIME_CODES, basin_map, regime_map
+from rattle_core.batch.maps import REGIME_CODES, basin_map, regime_map
 
 BASE = RattleParams(lam=2.0, amplitudes=(1.0, 0.25), phases_deg=(0.0, 0.0))
 
@@ -106,9 +106,9 @@ def test_dask_local_cluster_equals_local(dask_client):
 def _full_results(params, columns, x0, v0, transient, record, decimals=4):
     """Per-point fields and attractor fingerprints from one full chunk result (every impact
     and stroboscopic sample), classified afterwards: how maps were built from whole results."""
-    from rattle_core.classify import detect_period
-    from rattle_core.maps import _FLOAT_FIELDS, _fingerprint
-    from rattle_core.sweep import _run_chunk, _summarise
+    from rattle_core.analysis.classify import detect_period
+    from rattle_core.batch.maps import _FLOAT_FIELDS, _fingerprint
+    from rattle_core.batch.sweep import _run_chunk, _summarise
     n = len(next(iter(columns.values())))
     chunk = _run_chunk(params, columns, np.arange(n, dtype=np.float64), transient, record, x0, v0)
     summ = _summarise(chunk, record)
@@ -156,8 +156,8 @@ def test_summarised_chunks_equal_full_results(where, request):
 
 def test_map_tasks_return_per_point_summaries_only():
     """A map task sends back a few numbers per point, not the impacts and strobe samples."""
-    from rattle_core.maps import _map_chunk
-    from rattle_core.sweep import _run_chunk
+    from rattle_core.batch.maps import _map_chunk
+    from rattle_core.batch.sweep import _run_chunk
     n = 48
     cols = {"lam": np.linspace(1.5, 3.5, n), "phi2": np.linspace(0.0, 180.0, n)}
     rows = np.arange(n, dtype=np.float64)
@@ -192,7 +192,8 @@ def test_dask_progress_and_cancel_between_chunks(dask_client):
 
 def test_maps_are_cached(tmp_path, monkeypatch):
     """A repeated map request is served from disk, identical, without recomputing."""
-    from rattle_core import cache, maps
+    from rattle_core.batch import maps
+    from rattle_core.store import cache
     kw = dict(transient=30, record=20)
     first = cache.cached_map("regime", BASE, "lam", [1.0, 2.0], "phi2", [0.0, 90.0],
                              directory=tmp_path, **kw)
@@ -212,7 +213,7 @@ def test_maps_are_cached(tmp_path, monkeypatch):
 # ----- run_map: any two axes, physical ones included ----------------------------------------
 
 def _phys(excitation="displacement"):
-    from rattle_core.units import PhysicalParams
+    from rattle_core.model.units import PhysicalParams
     amps = (5e-4, 1.25e-4) if excitation == "displacement" else (400.0, 100.0)
     return PhysicalParams(inertia=2e-4, radius=0.04, drag_torque=0.02, backlash=160e-6,
                           rpm=1500.0, amplitudes=amps, phases_deg=(0.0, 45.0),
@@ -221,7 +222,7 @@ def _phys(excitation="displacement"):
 
 def test_run_map_rpm_by_drag_torque_equals_the_regime_map_it_drives():
     """With acceleration amplitudes rpm drives j and drag torque drives Λ: the same map."""
-    from rattle_core.maps import run_map
+    from rattle_core.batch.maps import run_map
     phys = _phys("acceleration")
     rpm = np.array([1200.0, 2000.0, 3000.0])
     torque = np.array([0.01, 0.02])
@@ -241,7 +242,7 @@ def test_run_map_rpm_by_drag_torque_equals_the_regime_map_it_drives():
 
 def test_run_map_two_axes_driving_lambda_run_each_point_at_its_own_lambda():
     """With displacement amplitudes rpm and drag torque both drive Λ: each cell is its own run."""
-    from rattle_core.maps import point_params, run_map
+    from rattle_core.batch.maps import point_params, run_map
     phys = _phys()
     rpm = np.array([1500.0, 3000.0])
     torque = np.array([0.01, 0.03])
@@ -260,7 +261,7 @@ def test_run_map_two_axes_driving_lambda_run_each_point_at_its_own_lambda():
 
 def test_run_map_basins_in_either_axis_order():
     """(v0, x0) gives the transposed basin map of (x0, v0), labelled with the caller's names."""
-    from rattle_core.maps import run_map
+    from rattle_core.batch.maps import run_map
     p = RattleParams(lam=1.16)
     xs, vs = np.linspace(2.0, 8.0, 4), np.linspace(-2.0, 2.0, 3)
     ref = basin_map(p, xs, vs, transient=100)
@@ -271,7 +272,7 @@ def test_run_map_basins_in_either_axis_order():
 
 def test_run_map_is_served_from_the_cache(tmp_path, monkeypatch):
     """A repeated run_map comes from the disk cache, says so, and holds the same values."""
-    from rattle_core.maps import run_map
+    from rattle_core.batch.maps import run_map
     monkeypatch.setenv("RATTLE_CACHE_DIR", str(tmp_path))
     kw = dict(transient=30, record=20)
     first = run_map(BASE, None, "lam", [1.0, 2.0], "phi2", [0.0, 90.0], **kw)
@@ -293,7 +294,7 @@ def test_run_map_is_served_from_the_cache(tmp_path, monkeypatch):
 ])
 def test_run_map_rejects_bad_axes_naming_them(args, message):
     """Mismatched, unknown or out-of-range axes raise ValueError naming the axis."""
-    from rattle_core.maps import run_map
+    from rattle_core.batch.maps import run_map
     with pytest.raises(ValueError, match=None) as err:
         run_map(_phys().to_dimensionless(), _phys(), *args, use_cache=False, transient=5, record=5)
     assert message in str(err.value)
@@ -301,6 +302,6 @@ def test_run_map_rejects_bad_axes_naming_them(args, message):
 
 def test_run_map_physical_axis_needs_physical_units():
     """A physical axis without PhysicalParams is refused, naming the axis."""
-    from rattle_core.maps import run_map
+    from rattle_core.batch.maps import run_map
     with pytest.raises(ValueError, match="y axis 'drag_torque' is physical"):
         run_map(BASE, None, "lam", [1, 2], "drag_torque", [0.01, 0.02], use_cache=False)

@@ -1,6 +1,6 @@
 """The Maps tab without a browser: a whole dashboard session, its map computed in the test's thread.
 
-The image the panel sends to the browser is checked against ``rattle_core.maps`` run on its
+The image the panel sends to the browser is checked against ``rattle_core.batch.maps`` run on its
 own, cell by cell; the messages against the limits they state; clicks against the dashboard's
 state.
 """
@@ -10,8 +10,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rattle_core.excitation import excitation
-from rattle_core.maps import REGIME_CODES, basin_map, regime_map
+from rattle_core.model.excitation import excitation
+from rattle_core.batch.maps import REGIME_CODES, basin_map, regime_map
 
 
 @pytest.fixture(autouse=True)
@@ -187,8 +187,8 @@ def test_background_compute_and_cancel(panel):
 
 def test_physical_axes_follow_the_units_mode(panel, dash):
     """rpm and drag torque are offered only in physical units, and map through the units."""
-    from rattle_core.maps import point_params
-    from rattle_core.units import PhysicalParams
+    from rattle_core.batch.maps import point_params
+    from rattle_core.model.units import PhysicalParams
     assert "rpm" not in panel.x_axis.options.values()
     phys = PhysicalParams(inertia=2e-4, radius=0.04, drag_torque=0.02, backlash=160e-6,
                           rpm=1500.0, amplitudes=(400.0, 100.0), phases_deg=(0.0, 45.0),
@@ -235,7 +235,7 @@ def test_local_dask_cluster_gives_the_same_map(panel):
     small(panel, 5, 4)
     panel.compute_now()
     local = {k: v.copy() for k, v in panel.result.fields.items()}
-    import rattle_core.cache as cache
+    import rattle_core.store.cache as cache
     for f in cache.cache_dir().glob("map-*.npz"):  # computed again, this time on Dask
         f.unlink()
     panel.scheduler.value = "local"

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from rattle_core import RattleParams, classify, contact_boundary, simulate
-from rattle_core.cache import cached_sweep
-from rattle_core.classify import period1_limits_harmonic
-from rattle_core.params import paper_to_core_phases
-from rattle_core.paper import (PRESETS, claim1_holds, claim2_holds, claim3_holds, claim4_holds,
+from rattle_core.store.cache import cached_sweep
+from rattle_core.analysis.classify import period1_limits_harmonic
+from rattle_core.model.params import paper_to_core_phases
+from rattle_core.paper.cases import (PRESETS, claim1_holds, claim2_holds, claim3_holds, claim4_holds,
                                claim5_holds, core_phi2_to_paper, evidence_values, paper_params,
                                paper_phi2_to_core, phase_convention_evidence, poincare_cloud,
                                write_paper_figures)

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from rattle_core import RattleParams, excitation, impact_map, poincare, simulate
-from rattle_core.excitation import TWO_PI
+from rattle_core.model.excitation import TWO_PI
 
 CASES = [
     RattleParams(lam=3.3),                                                     # E, harmonic

@@ -9,8 +9,8 @@ import pytest
 
 from naive import ivp_simulate, naive_sample, naive_simulate, y_derivative
 from rattle_core import RattleParams, SolverError, simulate
-from rattle_core import solver
-from rattle_core.excitation import _bounds, excitation
+from rattle_core.solver import kernel as solver
+from rattle_core.model.excitation import _bounds, excitation
 
 TWO_PI = 2.0 * np.pi
 R = 0.65

@@ -9,9 +9,9 @@ import pytest
 from scipy.io import wavfile
 
 from rattle_core import RattleParams, simulate
-from rattle_core.sound import (DEFAULT_MODES, HousingMode, normalize, parse_modes, render,
+from rattle_core.analysis.sound import (DEFAULT_MODES, HousingMode, normalize, parse_modes, render,
                                synthesize, write_wav)
-from rattle_core.units import PhysicalParams, example
+from rattle_core.model.units import PhysicalParams, example
 
 FS = 44_100
 F_EXC = 50.0

@@ -1,7 +1,7 @@
 """The dashboard's rattle-sound card, without a browser.
 
 The sound the card plays and exports is checked against the library's own
-:func:`rattle_core.sound.synthesize` of the dashboard's trajectory, and against the trajectory
+:func:`rattle_core.analysis.sound.synthesize` of the dashboard's trajectory, and against the trajectory
 itself: every impact is an onset in the signal, a gear stuck to its tooth is silent, and the
 physical-units mode stretches the sound by the engine speed.
 """
@@ -16,10 +16,10 @@ from scipy.io import wavfile
 
 from app import sound_panel
 from app.state import apply_values
-from rattle_core.excitation import TWO_PI
-from rattle_core.sound import (DEFAULT_EXCITATION_HZ, DEFAULT_TAIL, PEAK, parse_modes, synthesize,
+from rattle_core.model.excitation import TWO_PI
+from rattle_core.analysis.sound import (DEFAULT_EXCITATION_HZ, DEFAULT_TAIL, PEAK, parse_modes, synthesize,
                                to_int16)
-from rattle_core.units import PhysicalParams
+from rattle_core.model.units import PhysicalParams
 
 HARMONIC = {"h2": 0.0, "phi2": 0.0, "harmonics": ""}
 

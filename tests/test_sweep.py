@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from rattle_core import RattleParams, SweepResult, classify, simulate, sweep
-from rattle_core.sweep import MAX_VALUES
+from rattle_core.batch.sweep import MAX_VALUES
 
 HARM = RattleParams(lam=1.0)
 TWO_H = RattleParams(lam=2.0, amplitudes=(1.0, 0.25), phases_deg=(0.0, -135.0))
@@ -254,8 +254,8 @@ def test_summary_equals_classify_arrays_value_for_value():
     """The compiled per-chunk summary equals ``classify_arrays`` run on each value's own
     impacts and section, field by field, over responses of every regime."""
     import importlib
-    from rattle_core.classify import classify_arrays
-    sw = importlib.import_module("rattle_core.sweep")
+    from rattle_core.analysis.classify import classify_arrays
+    sw = importlib.import_module("rattle_core.batch.sweep")
     runs = [(HARM, [0.5, 1.03, 1.147, 1.235, 1.264, 1.41, 1.68, 3.3]),
             (TWO_H, [0.8, 1.09, 1.59, 2.41, 2.47])]
     seen = set()

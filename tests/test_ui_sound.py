@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy.io import wavfile
 
-from rattle_core.sound import DEFAULT_EXCITATION_HZ, DEFAULT_TAIL, PEAK
+from rattle_core.analysis.sound import DEFAULT_EXCITATION_HZ, DEFAULT_TAIL, PEAK
 from test_ui import box, open_dashboard, wait_box
 
 pytestmark = [pytest.mark.ui, pytest.mark.timeout(300)]

@@ -1,6 +1,6 @@
 """Browser test of the physical-units mode: switch it on, type an engine speed, see Λ follow.
 
-The expected Λ comes from ``rattle_core.units`` (``PhysicalParams.lam`` at the typed speed), and
+The expected Λ comes from ``rattle_core.model.units`` (``PhysicalParams.lam`` at the typed speed), and
 the value is read back from the Λ control's entry box in the page.
 """
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Browser test of the physical-units mode in the URL: a link opens with the mode and its inputs.
 
-The expected Λ comes from ``rattle_core.units`` (``PhysicalParams(...).lam`` for the linked
+The expected Λ comes from ``rattle_core.model.units`` (``PhysicalParams(...).lam`` for the linked
 inputs), read back from the Λ control's entry box; a garbage key leaves its message beside its
 input and the link corrected to the value shown.
 """

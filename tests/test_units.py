@@ -9,7 +9,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from rattle_core import RattleParams, simulate
-from rattle_core.units import (PhysicalParams, backlash_from_angle, backlash_from_um, example,
+from rattle_core.model.units import (PhysicalParams, backlash_from_angle, backlash_from_um, example,
                                j_from_rpm, lam_from_rpm, omega_from_rpm, rpm_from_lam,
                                rpm_from_sweep, rpm_sweep, wrap_deg)
 

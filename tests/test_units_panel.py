@@ -1,6 +1,6 @@
 """The dashboard's physical-units mode, without a browser.
 
-Every expectation comes from ``rattle_core.units`` itself (``PhysicalParams.lam``,
+Every expectation comes from ``rattle_core.model.units`` itself (``PhysicalParams.lam``,
 ``rpm_from_lam``, ``lam_from_rpm``, ``impulse_scale_from_rpm``), so a panel that maps the
 inputs differently, or forgets to map them, fails.
 """
@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from rattle_core import units
-from rattle_core.classify import contact_boundary
-from rattle_core.units import PhysicalParams
+from rattle_core.analysis.classify import contact_boundary
+from rattle_core.model.units import PhysicalParams
 
 
 @pytest.fixture()

@@ -27,7 +27,7 @@ import numpy as np
 from numba import njit
 
 from .events import _leave_step, _root_free, _safe_step
-from .excitation import TWO_PI, _bounds, _y_derivs
+from ..model.excitation import TWO_PI, _bounds, _y_derivs
 
 CONTACT_TOL = 1e-13
 V_FLOOR = 1e-12

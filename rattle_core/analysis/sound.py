@@ -56,9 +56,9 @@ import numpy as np
 from scipy.io import wavfile
 from scipy.signal import lfilter
 
-from .params import check_range
-from .trajectory import Trajectory
-from .units import PhysicalParams
+from ..model.params import check_range
+from ..solver.trajectory import Trajectory
+from ..model.units import PhysicalParams
 
 #: Fundamental excitation frequency used in dimensionless mode [Hz] (order 2 at 1500 rpm).
 DEFAULT_EXCITATION_HZ = 50.0

@@ -23,12 +23,12 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from .params import RattleParams, canonical_hash
-from .sweep import SCHEMA_VERSION, SweepResult, sweep, validate_sweep_args
-from .trajectory import SOLVER_VERSION
+from ..model.params import RattleParams, canonical_hash
+from ..batch.sweep import SCHEMA_VERSION, SweepResult, sweep, validate_sweep_args
+from ..solver.trajectory import SOLVER_VERSION
 
-#: Shipped precomputed diagrams (paper figures), next to the package in the repository.
-ASSETS_DIR = Path(__file__).resolve().parent.parent / "assets" / "paper"
+#: Shipped precomputed diagrams (the paper's sweeps): package data, so a wheel install has them.
+ASSETS_DIR = Path(__file__).resolve().parents[1] / "assets" / "paper"
 
 _SUMMARY_TYPES = {"value": np.float64, "regime": "U8", "period": np.int32, "n_active": np.int32,
                   "n_reverse": np.int32, "active_per_period": np.float64,
@@ -180,7 +180,7 @@ def save_map(path: Path | str, result, key: str | None = None) -> None:
 
 def load_map(path: Path | str):
     """Read a map written by :func:`save_map`; returns ``(result, meta)``."""
-    from .maps import MapResult
+    from ..batch.maps import MapResult
     with np.load(path, allow_pickle=False) as z:
         meta = json.loads(str(z["meta"]))
         fields = {k[2:]: z[k] for k in z.files if k.startswith("f_")}
@@ -197,7 +197,7 @@ def cached_map(kind: str, params: RattleParams, x_name: str, x_values, y_name: s
     """:func:`~rattle_core.maps.regime_map` (``kind="regime"``) or
     :func:`~rattle_core.maps.basin_map` (``kind="basin"``; names are ``x0``/``v0``), served from
     the disk cache when the same request ran before.  A cancelled map is not stored."""
-    from . import maps
+    from ..batch import maps
     if kind not in ("regime", "basin"):
         raise ValueError(f"kind = {kind!r}; allowed: 'regime' or 'basin'")
     keyed = {k: v for k, v in kwargs.items() if k in ("transient", "record", "x0", "v0", "decimals")}

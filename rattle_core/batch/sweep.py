@@ -29,11 +29,11 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from . import solver
-from .classify import REGIME_LETTERS, classify_batch
-from .excitation import excitation
-from .params import RattleParams, check_range, parse_name
-from .trajectory import MAX_PERIODS, SOLVER_VERSION, _check_int
+from ..solver import kernel as solver
+from ..analysis.classify import REGIME_LETTERS, classify_batch
+from ..model.excitation import excitation
+from ..model.params import RattleParams, check_range, parse_name
+from ..solver.trajectory import MAX_PERIODS, SOLVER_VERSION, _check_int
 
 if TYPE_CHECKING:  # pandas is imported on first use: it costs a quarter second at start-up
     import pandas as pd

@@ -27,12 +27,12 @@ from typing import Any, Callable, Iterable
 import numpy as np
 import pandas as pd
 
-from .cache import ASSETS_DIR, cached_sweep, load_result, sweep_key
-from .classify import LYAP_CHAOS, classify, contact_boundary, period1_limits_harmonic
-from .excitation import TWO_PI, excitation
-from .params import RattleParams, _wrap_deg, paper_to_core_phases
-from .sweep import SweepResult
-from .trajectory import Trajectory, simulate
+from ..store.cache import ASSETS_DIR, cached_sweep, load_result, sweep_key
+from ..analysis.classify import LYAP_CHAOS, classify, contact_boundary, period1_limits_harmonic
+from ..model.excitation import TWO_PI, excitation
+from ..model.params import RattleParams, _wrap_deg, paper_to_core_phases
+from ..batch.sweep import SweepResult
+from ..solver.trajectory import Trajectory, simulate
 
 #: The paper's fixed parameters: restitution, backlash (in units of H₁), H₂/H₁.
 PAPER_R = 0.65

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .excitation import TWO_PI, excitation
-from .params import check_range
-from .trajectory import Trajectory
+from ..model.excitation import TWO_PI, excitation
+from ..model.params import check_range
+from ..solver.trajectory import Trajectory
 
 
 def poincare(tr: Trajectory, relative: bool = False, phase: float | None = None

@@ -39,8 +39,8 @@ import math
 import numpy as np
 from numba import njit
 
-from .excitation import TWO_PI, excitation
-from .params import RattleParams
+from ..model.excitation import TWO_PI, excitation
+from ..model.params import RattleParams
 
 MAX_PERIOD = 32
 PERIOD_TOL = 1e-6

@@ -27,11 +27,11 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .classify import MAX_PERIOD, detect_period
-from .excitation import excitation
-from .params import RattleParams, check_range, iter_names, parse_name
+from ..analysis.classify import MAX_PERIOD, detect_period
+from ..model.excitation import excitation
+from ..model.params import RattleParams, check_range, iter_names, parse_name
 from .sweep import REGIME_ORDER, SCHEMA_VERSION, _run_chunk, _summary_arrays
-from .trajectory import MAX_PERIODS, SOLVER_VERSION, _check_int
+from ..solver.trajectory import MAX_PERIODS, SOLVER_VERSION, _check_int
 
 #: Regime letters and their integer codes in map arrays.
 REGIME_CODES = {"A": 0, "B": 1, "C": 2, "D": 3, "E": 4, "P": 5, "Q": 6, "error": 7}
@@ -411,7 +411,7 @@ def _flat_map(params: RattleParams, name: str, flat: np.ndarray, shape: tuple[in
               use_cache: bool, common: dict) -> MapResult:
     """A map whose two axes drive one parameter: a 1-D sweep over every grid point, reshaped."""
     if use_cache:
-        from .cache import cached_sweep as run
+        from ..store.cache import cached_sweep as run
     else:
         from .sweep import sweep as run
     res = run(params, name, flat, **common)
@@ -475,7 +475,7 @@ def run_map(params: RattleParams, phys: Any, x_name: str, x_values, y_name: str,
             raise ValueError("x0 and v0 are the axes of a basin map; do not give them as settings")
         xs, vs = (xv, yv) if x_name == "x0" else (yv, xv)
         if use_cache:
-            from .cache import cached_map
+            from ..store.cache import cached_map
             result = cached_map("basin", params, "x0", xs, "v0", vs, **common)
         else:
             result = basin_map(params, xs, vs, **common)
@@ -485,7 +485,7 @@ def run_map(params: RattleParams, phys: Any, x_name: str, x_values, y_name: str,
     elif plan[0] == "map":
         _, a, av, b, bv = plan
         if use_cache:
-            from .cache import cached_map
+            from ..store.cache import cached_map
             result = cached_map("regime", params, a, av, b, bv, **common)
         else:
             result = regime_map(params, a, av, b, bv, **common)

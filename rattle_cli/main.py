@@ -189,7 +189,7 @@ def build_params(args: argparse.Namespace):
     Raises ``CLIError`` when the two systems are mixed or a physical input is missing, and
     ``ValueError`` (from the parameter classes) for values out of range.
     """
-    from .params import RattleParams
+    from rattle_core.model.params import RattleParams
 
     r = 0.65 if args.r is None else args.r
     v_stick = 1e-6 if args.v_stick is None else args.v_stick
@@ -229,7 +229,7 @@ def build_params(args: argparse.Namespace):
 
 
 def _build_physical(args: argparse.Namespace, r: float, v_stick: float):
-    from . import units
+    from rattle_core.model import units
 
     if args.theta_amp is not None and args.alpha_amp is not None:
         raise CLIError("give --theta-amp (displacement) or --alpha-amp (acceleration), not both")
@@ -353,7 +353,7 @@ def _meta(params, phys) -> dict:
     if phys is not None:
         import dataclasses
         meta["physical"] = dataclasses.asdict(phys)
-    from .trajectory import SOLVER_VERSION
+    from rattle_core.solver.trajectory import SOLVER_VERSION
     meta["solver_version"] = SOLVER_VERSION
     return meta
 
@@ -387,7 +387,7 @@ def _label(params, phys, swept: Sequence[str] = ()) -> str:
 
 def _classify_label(tr) -> str:
     try:
-        from .classify import classify
+        from rattle_core.analysis.classify import classify
     except ImportError:
         return ""
     try:
@@ -437,8 +437,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     import numpy as np
     import pandas as pd
 
-    from .excitation import excitation
-    from .trajectory import simulate
+    from rattle_core.model.excitation import excitation
+    from rattle_core.solver.trajectory import simulate
 
     if args.impacts is None and args.history is None:
         raise CLIError("simulate: give --impacts FILE and/or --history FILE (.csv or .parquet)")
@@ -567,10 +567,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         if phys is None:
             raise CLIError("--param rpm needs physical units (--inertia, --radius, --drag-torque, "
                            "--backlash-um, --rpm, --theta-amp or --alpha-amp)")
-        from .units import impulse_scale_from_rpm, rpm_sweep
+        from rattle_core.model.units import impulse_scale_from_rpm, rpm_sweep
         rpm = values
         name, values = rpm_sweep(phys, rpm)
-    sweep_mod = _lazy("rattle_core.sweep", "sweeping (rattle sweep)")
+    sweep_mod = _lazy("rattle_core.batch.sweep", "sweeping (rattle sweep)")
     transient = 500 if args.transient is None else args.transient
     record = 200 if args.record is None else args.record
     # Reject bad requests before any progress bar or worker starts, so the error stays one line.
@@ -580,7 +580,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     if args.no_cache:
         run = sweep_mod.sweep
     else:
-        run = getattr(_lazy("rattle_core.cache", "the sweep cache"), "cached_sweep")
+        run = getattr(_lazy("rattle_core.store.cache", "the sweep cache"), "cached_sweep")
     executor, shutdown = _make_executor(args, run)
     progress = _Progress(f"sweep {args.param}", enabled=not args.quiet, total=len(values))
     kwargs: dict[str, Any] = {"transient": transient, "record": record, "mode": args.mode,
@@ -609,7 +609,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     meta = {"name": result.name, "swept": args.param, "params": result.params.to_dict(),
             "settings": settings}
     if out.suffix.lower() == ".npz":
-        save = getattr(_lazy("rattle_core.cache", "saving a sweep (.npz)"), "save_result")
+        save = getattr(_lazy("rattle_core.store.cache", "saving a sweep (.npz)"), "save_result")
         save(out, result)
         _user_permissions(out)
     else:
@@ -634,9 +634,9 @@ def _cmd_map(args: argparse.Namespace, out: Path, png: Path | None, params, phys
     """A 2-D regime/intensity map, or basins of attraction, to a file plus PNG."""
     import numpy as np
 
-    maps = _lazy("rattle_core.maps", "2-D maps (rattle sweep --param2)")
+    maps = _lazy("rattle_core.batch.maps", "2-D maps (rattle sweep --param2)")
     if not args.no_cache:
-        _lazy("rattle_core.cache", "the map cache")
+        _lazy("rattle_core.store.cache", "the map cache")
     names = (args.param, args.param2)
     if args.mode != "fresh":
         raise CLIError("2-D maps start every point from the same state; drop --mode continuation")
@@ -664,7 +664,7 @@ def _cmd_map(args: argparse.Namespace, out: Path, png: Path | None, params, phys
         shutdown()
     settings = result.settings
     if out.suffix.lower() == ".npz":
-        save_map = getattr(_lazy("rattle_core.cache", "saving a map (.npz)"), "save_map")
+        save_map = getattr(_lazy("rattle_core.store.cache", "saving a map (.npz)"), "save_map")
         save_map(out, result)
         _user_permissions(out)
     else:
@@ -720,7 +720,7 @@ def _plot_map(path: Path, result, params, phys, regime_codes: dict) -> None:
             ax1.set_title("attractor reached", fontsize=10)
         else:
             letters = list(regime_codes)
-            from .maps import REGIME_COLOURS
+            from rattle_core.batch.maps import REGIME_COLOURS
             colours = [REGIME_COLOURS.get(k, "#000000") for k in letters]
             reg = result.fields["regime"].astype(float)
             reg[reg < 0] = np.nan
@@ -799,8 +799,8 @@ def _plot_sweep(path: Path, table, swept: str, params, phys, name: str) -> None:
 
 def cmd_sound(args: argparse.Namespace) -> int:
     """Synthesise the rattle sound of one run and write it as WAV."""
-    from . import sound
-    from .trajectory import simulate
+    from rattle_core.analysis import sound
+    from rattle_core.solver.trajectory import simulate
 
     out = _check_output(args.out, (".wav",), "--out")
     params, phys = build_params(args)
@@ -827,7 +827,7 @@ def cmd_paper(args: argparse.Namespace) -> int:
         raise CLIError(f"--out {args.out!r} exists and is not a directory")
     if not out.parent.exists():
         raise CLIError(f"--out {args.out!r}: directory {str(out.parent)!r} does not exist")
-    mod = _lazy("rattle_core.paper", "reproducing the paper (rattle paper)")
+    mod = _lazy("rattle_core.paper.cases", "reproducing the paper (rattle paper)")
     write = getattr(mod, "write_paper_figures", None)
     if write is None:
         raise CLIError("reproducing the paper (rattle paper) is not available: "
@@ -1036,7 +1036,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         0 on success, 1 when a run stopped at a solver limit or a file could not be written,
         2 for bad arguments, 130 when interrupted.
     """
-    from .trajectory import SolverError
+    from rattle_core.solver.trajectory import SolverError
 
     parser = build_parser()
     try:

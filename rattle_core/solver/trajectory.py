@@ -11,9 +11,9 @@ import math
 
 import numpy as np
 
-from . import solver
-from .excitation import TWO_PI, excitation
-from .params import RattleParams, check_range
+from . import kernel as solver
+from ..model.excitation import TWO_PI, excitation
+from ..model.params import RattleParams, check_range
 
 SOLVER_VERSION = "1.1.0"
 #: Largest number of forcing periods (transient + recorded) one call may run.

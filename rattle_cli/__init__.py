@@ -1,0 +1,1 @@
+"""The ``rattle`` command: the command-line face of Rattle Explorer (top layer, beside the dashboard)."""

@@ -1,0 +1,8 @@
+"""The model: what the rattle problem is, before anything is solved.
+
+* ``params``: :class:`RattleParams`, the one canonical, validated parameter set, and its cache key.
+* ``excitation``: the driving tooth's motion ``y(t) = Σ h_k cos(k t − φ_k)`` and its bounds.
+* ``units``: physical units (kg·m², N·m, µm, rpm) to and from the dimensionless model.
+
+Imports nothing else from :mod:`rattle_core`.
+"""

@@ -1,0 +1,8 @@
+"""The solver: exact, event-driven motion of the idle gear.
+
+* ``events``: proven root-free step lengths, so no contact is ever stepped over.
+* ``kernel``: the compiled event loop (flight, impact, chatter, stick, release, tangents).
+* ``trajectory``: :func:`simulate` and the :class:`Trajectory` it returns.
+
+Imports only :mod:`rattle_core.model`.
+"""
