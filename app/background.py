@@ -17,7 +17,6 @@ Shipped diagrams (``assets/paper``) and the disk cache answer first when they fi
 from __future__ import annotations
 
 import dataclasses
-import functools
 import logging
 import threading
 from concurrent.futures import ThreadPoolExecutor
@@ -26,6 +25,8 @@ from typing import Any, Callable
 import numpy as np
 
 from rattle_core import RattleParams
+from rattle_core.store import assets
+from rattle_core.store.cache import cached_sweep
 
 log = logging.getLogger(__name__)
 
@@ -71,47 +72,18 @@ def diagram_from_result(result: Any, source: str) -> Diagram:
                    cancelled=bool(getattr(result, "cancelled", False)))
 
 
-@functools.lru_cache(maxsize=1)
-def _assets() -> tuple:
-    """Every shipped diagram, loaded once per process (they never change while it runs)."""
-    try:
-        from rattle_core.store import cache
-    except ImportError:
-        return ()
-    out = []
-    for name in cache.list_assets():
-        res = cache.load_asset(name)
-        if res is not None:
-            out.append((name, res))
-    return tuple(out)
-
-
 def find_shipped(params: RattleParams, name: str) -> Diagram | None:
     """A shipped diagram sweeping ``name`` with every other parameter equal to ``params``."""
-    for asset, res in _assets():
-        if res.name != name:
-            continue
-        try:
-            same = res.params.with_value(name, params.get(name)).canonical() == params.canonical()
-        except ValueError:
-            same = False
-        if same:
-            return diagram_from_result(res, f"shipped diagram {asset}")
-    return None
+    found = assets.find_asset(params, name)
+    return None if found is None else diagram_from_result(found[1], f"shipped diagram {found[0]}")
 
 
 def run_sweep(req: SweepRequest, progress: Callable[[int, int], Any] | None = None,
               cancel: Callable[[], bool] | None = None) -> Diagram:
     """Compute (or fetch from the disk cache) one diagram, in the calling thread."""
-    try:
-        from rattle_core.store.cache import cached_sweep as _sweep
-        source = "computed (disk cache)"
-    except ImportError:
-        from rattle_core.batch.sweep import sweep as _sweep
-        source = "computed"
-    res = _sweep(req.params, req.name, req.as_array(), transient=req.transient, record=req.record,
-                 mode="fresh", progress=progress, cancel=cancel)
-    return diagram_from_result(res, source)
+    res = cached_sweep(req.params, req.name, req.as_array(), transient=req.transient,
+                       record=req.record, mode="fresh", progress=progress, cancel=cancel)
+    return diagram_from_result(res, "computed (disk cache)")
 
 
 class CancellableJob:
@@ -172,7 +144,8 @@ def submit(req: SweepRequest, on_progress: Callable[[float], None],
 
 def warm_up() -> None:
     """Compile the sweep kernel (numba) and load the shipped diagrams before the first visitor."""
-    _assets()
+    for name in assets.list_assets():
+        assets.load_asset(name)
     try:
         run_sweep(SweepRequest(RattleParams(lam=2.0), "lam", (2.0, 2.5), transient=2, record=2))
     except Exception as exc:

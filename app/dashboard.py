@@ -26,7 +26,7 @@ import panel as pn
 from bokeh.events import RangesUpdate, Reset, Tap
 
 from rattle_core import SolverError, classify, simulate, units
-from rattle_core.analysis.classify import contact_boundary
+from rattle_core import contact_boundary
 from rattle_core.model.excitation import excitation
 
 from . import background, maps_panel, sound_panel, units_panel, views

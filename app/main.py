@@ -20,11 +20,13 @@ import threading
 
 import panel as pn
 
-if __package__ in (None, ""):  # run as a script by `panel serve app/main.py`
+if __package__ in (None, ""):  # run as a script by `panel serve app/main.py`, from a checkout
     sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-
-from app import background, maps_panel, views  # noqa: E402
-from app.dashboard import Dashboard  # noqa: E402
+    from app import background, maps_panel, views
+    from app.dashboard import Dashboard
+else:  # imported as a package: `app` in a checkout, `rattle_app` when installed
+    from . import background, maps_panel, views
+    from .dashboard import Dashboard
 
 log = logging.getLogger("app")
 

@@ -2,17 +2,17 @@
 
 An NVH engineer picks two axes (Λ, r, j, H₂/H₁, φ₂; engine speed and drag torque when the
 dashboard works in physical units) or the start state (basins), a range and a number of points
-per axis, and presses Compute. The map runs through :func:`rattle_core.batch.maps.run_map`:
+per axis, and presses Compute. The map runs through :func:`rattle_core.store.requests.run_map`:
 
 * on this panel's own worker thread, never on the server's event loop, so sliders stay live
-  (parallel kernel launches are serialised in ``rattle_core.batch.sweep``, so a map may run while a
+  (parallel kernel launches are serialised in ``rattle_core.batch.chunks``, so a map may run while a
   bifurcation diagram does); progress and the result come back through the session's document;
 * cancelled by Cancel, by a new request, and when the session closes;
 * from the disk cache when the same map ran before (the status line says so, and how long it
   took);
 * on local cores, or on Dask when the "Dask scheduler" field holds ``tcp://host:port`` (a
   shared ``Client`` per address) or ``local`` (one 2-worker ``LocalCluster`` per server
-  process, closed at exit). ``rattle serve --scheduler``/``--dask local`` set the field's
+  process, closed at exit; :mod:`rattle_core.batch.executor`). ``rattle serve --scheduler``/``--dask local`` set the field's
   default through :func:`set_default_scheduler`.
 
 The map is a Bokeh image whose data source (``map_image``) also holds, per cell, the values the
@@ -24,14 +24,11 @@ only on request.
 """
 from __future__ import annotations
 
-import atexit
 import contextlib
 import functools
 import io
 import logging
 import math
-import re
-import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any, Callable
@@ -44,9 +41,12 @@ from bokeh.models import (ColorBar, ColumnDataSource, HoverTool, LinearColorMapp
 from bokeh.palettes import Category20, Magma256, Viridis256
 from bokeh.plotting import figure
 
-from rattle_core.batch import maps
+from rattle_core.analysis.vocabulary import REGIME_CODES, REGIME_COLOURS, REGIME_MEANING
+from rattle_core.batch import plan as maps
+from rattle_core.batch.executor import check_scheduler
+from rattle_core.batch.executor import shared_client as dask_client
 from rattle_core.model.excitation import excitation
-from rattle_core.batch.maps import REGIME_CODES, REGIME_COLOURS
+from rattle_core.store.requests import run_map
 
 from .background import CancellableJob
 from .panel_base import FeaturePanel
@@ -72,30 +72,14 @@ TRANSIENT_RANGE = (0, 100_000)
 RECORD_RANGE = (1, 10_000)
 DEFAULTS = {"num": 60, "transient": 200, "record": 60}
 
-REGIME_MEANING = {"A": "permanent contact", "B": "impacts, then sticking", "C": "one-sided impacts",
-                  "D": "chaotic", "E": "two-sided impacts", "P": "periodic, other",
-                  "Q": "quasi-periodic", "error": "solver limit"}
 FIELDS = {"regime": "regime", "intensity": "rattle intensity Σ Ĩ² per period",
           "period": "period (forcing periods)", "lyapunov": "Lyapunov exponent",
           "stick_fraction": "stick fraction"}
 BASIN_FIELDS = {"attractor": "attractor reached", **FIELDS}
-_SCHEDULER_RE = re.compile(r"^(tcp|tls|ws|wss)://[^\s/]+$")
 
 # ----- Dask: one client per address and one local cluster per server process ---------------
 
-_dask_lock = threading.Lock()
-_clients: dict[str, Any] = {}
-_cluster: Any = None
 _default_scheduler = ""
-
-
-def check_scheduler(text: Any) -> str:
-    """The scheduler field cleaned: ``""``, ``"local"`` or an address; else ``ValueError``."""
-    s = "" if text is None else str(text).strip()
-    if s in ("", "local") or _SCHEDULER_RE.match(s):
-        return s
-    raise ValueError(f"Dask scheduler {s!r} is not understood: leave it empty for this server's "
-                     "cores, write 'local' for a 2-worker Dask LocalCluster, or tcp://host:port")
 
 
 def set_default_scheduler(address: str | None) -> None:
@@ -106,56 +90,6 @@ def set_default_scheduler(address: str | None) -> None:
 
 def default_scheduler() -> str:
     return _default_scheduler
-
-
-def dask_client(address: str) -> Any:
-    """A shared ``dask.distributed.Client`` for ``address`` (None for local cores).
-
-    Raises ``ConnectionError`` with a one-line message when the scheduler cannot be reached
-    within 5 s or Dask is missing.
-    """
-    global _cluster
-    address = check_scheduler(address)
-    if address == "":
-        return None
-    with _dask_lock:
-        client = _clients.get(address)
-        if client is not None and client.status == "running":
-            return client
-        try:
-            from dask.distributed import Client, LocalCluster
-        except ImportError:
-            raise ConnectionError("Dask is not installed on this server; leave the Dask "
-                                  "scheduler empty to use its cores") from None
-        try:
-            if address == "local":
-                if _cluster is None:
-                    _cluster = LocalCluster(n_workers=2, threads_per_worker=1,
-                                            dashboard_address=None)
-                client = Client(_cluster, set_as_default=False)
-            else:
-                client = Client(address, timeout="5s", set_as_default=False)
-        except Exception as exc:
-            text = " ".join(str(exc).split()) or type(exc).__name__
-            raise ConnectionError(f"Dask scheduler {address!r}: cannot connect ({text})") from None
-        _clients[address] = client
-        return client
-
-
-@atexit.register
-def _close_dask() -> None:
-    with _dask_lock:
-        for client in _clients.values():
-            try:
-                client.close()
-            except Exception:
-                pass
-        _clients.clear()
-        if _cluster is not None:
-            try:
-                _cluster.close()
-            except Exception:
-                pass
 
 
 # ----- the background job -----------------------------------------------------------------
@@ -183,7 +117,7 @@ class MapJob(CancellableJob):
         try:
             # the shared clients are nobody's default; Dask's as_completed needs a current one
             with (executor.as_current() if executor is not None else contextlib.nullcontext()):
-                result = maps.run_map(req["params"], req["phys"], req["x_name"], req["x_values"],
+                result = run_map(req["params"], req["phys"], req["x_name"], req["x_values"],
                                       req["y_name"], req["y_values"], use_cache=True,
                                       progress=self._progress, cancel=self._cancel.is_set, **kwargs)
         except Exception as exc:  # reported to its own session only, as a message

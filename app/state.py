@@ -7,7 +7,8 @@ naming the control, the value and the allowed range, and the last good state sta
 
 Phases typed in the dashboard follow the core's literal convention,
 ``y = Σ h_k cos(k t − φ_k)``. The paper's figures read the excitation as ``Σ h_k sin(k t + φ_k)``;
-presets convert with :func:`paper_phase2`, so "Fig 7" (paper φ₂ = 45°) sets φ₂ = −135°.
+the presets come from the paper's cases (:func:`rattle_core.paper.cases.explorer_presets`), which
+store core phases, so "Fig 7" (paper φ₂ = 45°) sets φ₂ = −135°.
 """
 from __future__ import annotations
 
@@ -19,8 +20,9 @@ import param
 
 from rattle_core import RattleParams
 from rattle_core.model.params import (AMPLITUDE_RANGE, J_RANGE, LAM_RANGE, MAX_HARMONICS,
-                                PHASE_RANGE_DEG, R_RANGE, V_STICK_RANGE, check_range,
-                                paper_to_core_phases)
+                                      PHASE_RANGE_DEG, R_RANGE, V_STICK_RANGE, check_range)
+from rattle_core.model.phases import paper_to_core
+from rattle_core.paper.cases import explorer_presets
 
 #: Largest window the dashboard simulates per redraw, to keep a slider move interactive.
 MAX_PERIODS = 20_000
@@ -73,11 +75,6 @@ SECTIONS = ("absolute", "relative", "impact")
 BIF_PARAMS = ("lam", "phi2", "rpm")
 
 
-def paper_phase2(phi_paper_deg: float) -> float:
-    """φ₂ in the core's convention for the paper's φ₂ (``rattle_core.model.params.paper_to_core_phases``)."""
-    return paper_to_core_phases((0.0, phi_paper_deg))[1]
-
-
 class DashboardState(param.Parameterized):
     """Everything that defines the view; synced with the URL, one instance per session.
 
@@ -89,7 +86,7 @@ class DashboardState(param.Parameterized):
     r = param.Number(0.65, bounds=R_RANGE)
     j = param.Number(8.0, bounds=J_RANGE, inclusive_bounds=(False, True))
     h2 = param.Number(0.25, bounds=AMPLITUDE_RANGE)
-    phi2 = param.Number(paper_phase2(45.0), bounds=PHASE_RANGE_DEG)
+    phi2 = param.Number(paper_to_core(45.0), bounds=PHASE_RANGE_DEG)
     harmonics = param.String("", doc="Extra harmonics k ≥ 3 as 'k:h:φ' items, comma-separated.")
     periods = param.Integer(200, bounds=(1, MAX_PERIODS))
     shown = param.Integer(12, bounds=(1, MAX_SHOWN))
@@ -235,31 +232,12 @@ def apply_values(state: DashboardState, values: dict[str, Any]) -> dict[str, str
 
 # ----- the paper's cases --------------------------------------------------------------------
 
-def _harmonic(**kw: Any) -> dict[str, Any]:
-    return {"h2": 0.0, "phi2": 0.0, "harmonics": "", "r": 0.65, "j": 8.0, "x0": "", "v0": 0.0,
-            "t0": 0.0, **kw}
-
-
-def _two_harmonics(phi_paper: float, **kw: Any) -> dict[str, Any]:
-    return {"h2": 0.25, "phi2": paper_phase2(phi_paper), "harmonics": "", "r": 0.65, "j": 8.0,
-            "x0": "", "v0": 0.0, "t0": 0.0, **kw}
+def _state_values(p: RattleParams, **view: Any) -> dict[str, Any]:
+    """The state values that show ``p`` (two harmonics at most) from a fresh start."""
+    return {"lam": p.lam, "r": p.r, "j": p.j, "h2": p.get("h2"), "phi2": p.get("phi2"),
+            "harmonics": "", "x0": "", "v0": 0.0, "t0": 0.0, **view}
 
 
 #: One-click reproductions of the paper's figures: label → (description, state values).
 PRESETS: dict[str, tuple[str, dict[str, Any]]] = {
-    "Fig 2": ("Impulse vs Λ, harmonic excitation", _harmonic(lam=2.5, bif="lam", shown=12)),
-    "Fig 3B": ("Time history, regime B: impacts then permanent contact",
-               _harmonic(lam=1.1, bif="lam", shown=6)),
-    "Fig 3C": ("Time history, regime C: one active-flank impact per period",
-               _harmonic(lam=1.2, bif="lam", shown=6)),
-    "Fig 3D": ("Time history, regime D: chaotic", _harmonic(lam=1.16, bif="lam", shown=12)),
-    "Fig 3E": ("Time history, regime E: one impact on each flank per period",
-               _harmonic(lam=3.3, bif="lam", shown=6)),
-    "Fig 4": ("Impulse vs Λ, H₂/H₁ = 0.25, φ₂ = 45° (paper)", _two_harmonics(45.0, lam=3.3, bif="lam")),
-    "Fig 5": ("Impulse vs Λ, H₂/H₁ = 0.25, φ₂ = 90° (paper)", _two_harmonics(90.0, lam=3.3, bif="lam")),
-    "Fig 6": ("Impulse vs φ₂ at Λ = 1.95", _two_harmonics(45.0, lam=1.95, bif="phi2")),
-    "Fig 7": ("Strange attractor: Λ = 3.3, φ₂ = 45° (paper)",
-              _two_harmonics(45.0, lam=3.3, bif="lam", periods=5000, section="absolute")),
-    "Fig 8": ("Periodic, one impact per flank: Λ = 3.3, φ₂ = 90° (paper)",
-              _two_harmonics(90.0, lam=3.3, bif="lam", periods=200, shown=6, section="absolute")),
-}
+    p.label: (p.description, _state_values(p.params, **p.view)) for p in explorer_presets()}

@@ -42,7 +42,9 @@ import panel as pn
 
 from rattle_core import RattleParams, units
 from rattle_core.model.params import check_range
-from rattle_core.model.units import PhysicalParams, wrap_deg
+from rattle_core.analysis.vocabulary import physical_table
+from rattle_core.model.phases import wrap_deg
+from rattle_core.model.units import PhysicalParams
 
 from .panel_base import FeaturePanel
 from .state import apply_values, parse_harmonics
@@ -661,7 +663,7 @@ def table_html(phys: PhysicalParams, cls) -> str:
             "<th style='text-align:left;padding-right:10px'>physical</th>"
             "<th style='text-align:left'>dimensionless</th></tr>")
     body = "".join(f"<tr><td style='padding-right:10px'>{e(q)}</td><td style='padding-right:10px'>"
-                   f"<b>{e(a)}</b></td><td><b>{e(b)}</b></td></tr>" for q, a, b in phys.table())
+                   f"<b>{e(a)}</b></td><td><b>{e(b)}</b></td></tr>" for q, a, b in physical_table(phys))
     metrics = "".join(f"<tr><td style='padding-right:10px'>{e(q)}</td><td><b>{e(v)}</b></td></tr>"
                       for q, v in physical_metrics(phys, cls))
     return ('<div class="units-tables" style="display:flex;gap:24px;flex-wrap:wrap;font-size:12px">'

@@ -26,11 +26,14 @@ from bokeh.models import (ColumnDataSource, DataRange1d, HoverTool, Legend, Lege
 from bokeh.plotting import figure
 
 from rattle_core import Trajectory
+from rattle_core.analysis.vocabulary import (ACTIVE, FLANK_COLOURS, REGIME_COLOURS, REVERSE,
+                                             STICK_COLOUR, UNKNOWN_COLOUR, flank_colours)
 from rattle_core.model.excitation import TWO_PI
+from rattle_core.store.exports import impacts_frame
 
-ACTIVE_COLOR = "#c0392b"
-REVERSE_COLOR = "#1f5fa8"
-STICK_COLOR = "#f39c12"
+ACTIVE_COLOR = FLANK_COLOURS[ACTIVE]
+REVERSE_COLOR = FLANK_COLOURS[REVERSE]
+STICK_COLOR = STICK_COLOUR
 TOOTH_COLOR = "#9aa5b1"
 GEAR_COLOR = "#222222"
 MARK_COLOR = "#2ca02c"
@@ -39,8 +42,6 @@ RASTER_THRESHOLD = 4000
 #: Samples per forcing period of the time history (impact instants are added exactly).
 POINTS_PER_PERIOD = 160
 
-REGIME_COLORS = {"A": "#7f8c8d", "B": "#8e44ad", "C": "#27ae60", "D": "#c0392b", "E": "#2471a3",
-                 "P": "#16a085", "Q": "#d35400"}
 
 
 # ----- data builders --------------------------------------------------------------------------
@@ -71,7 +72,7 @@ def time_history_data(tr: Trajectory, shown: int,
     wall_y, wall_yj = tr.walls(imp_t)
     impacts = {"t": imp_t, "x": np.where(flank > 0, wall_y, wall_yj), "flank": flank,
                "impulse": tr.impact_impulse[in_win],
-               "color": np.where(flank > 0, ACTIVE_COLOR, REVERSE_COLOR).astype(object),
+               "color": flank_colours(flank),
                "side": np.where(flank > 0, "active flank", "reverse flank").astype(object)}
 
     xs, ys = [], []
@@ -208,7 +209,7 @@ def rpm_overlay_lines(phys, x_range: tuple[float, float], lam_c: float | None,
 
 def badge_html(cls) -> str:
     """The regime badge: letter, period, chaotic or not, Lyapunov exponent."""
-    color = REGIME_COLORS.get(cls.regime, "#555")
+    color = REGIME_COLOURS.get(cls.regime, UNKNOWN_COLOUR)
     lyap = cls.lyapunov
     if lyap is None or (isinstance(lyap, float) and math.isnan(lyap)):
         lyap_txt = "n/a"
@@ -246,11 +247,8 @@ def metrics_html(cls, tr: Trajectory) -> str:
 
 def impacts_csv(tr: Trajectory) -> str:
     """Every recorded impact as CSV: time, phase, signed impulse, flank, incoming relative velocity."""
-    df = pd.DataFrame({"t": tr.impact_t, "phase": tr.impact_phase, "impulse": tr.impact_impulse,
-                       "flank": np.where(tr.impact_flank > 0, "active", "reverse"),
-                       "w": tr.impact_w})
     buf = io.StringIO()
-    df.to_csv(buf, index=False, float_format="%.17g")
+    impacts_frame(tr).to_csv(buf, index=False, float_format="%.17g")
     return buf.getvalue()
 
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from rattle_core import RattleParams
 from rattle_core.batch.maps import _map_chunk, regime_map
-from rattle_core.batch.sweep import _run_chunk
+from rattle_core.batch.chunks import run_chunk
 
 
 def main() -> None:
@@ -78,7 +78,7 @@ def main() -> None:
     cols = {"lam": gx.ravel()[:size], "phi2": gy.ravel()[:size]}
     rows = np.arange(size, dtype=np.float64)
     summary = len(pickle.dumps(_map_chunk(base, cols, rows, args.transient, args.record, None, 0.0)))
-    full = len(pickle.dumps(_run_chunk(base, cols, rows, args.transient, args.record, None, 0.0)))
+    full = len(pickle.dumps(run_chunk(base, cols, rows, args.transient, args.record, None, 0.0)))
     scale = n / size
     print(f"task results (first chunk, {size} points, pickled): {summary / size:.0f} bytes per "
           f"point, about {summary * scale / 1e6:.2f} MB for the map; the full per-impact result "

@@ -3,7 +3,7 @@
 Prints, after compilation:
 
 1. The Figure 2 sweep (harmonic, r = 0.65, j = 8): 1000 values of Λ in [0.5, 4], each
-   500 transient + 200 recorded periods, through :func:`rattle_core.batch.sweep` (kernel, impact
+   500 transient + 200 recorded periods, through :func:`rattle_core.sweep` (kernel, impact
    table and per-value classification).  Wall time with all numba threads and with one
    thread (``numba.set_num_threads(1)``), and the speed-up.  Target: ≤ 3 s.
 2. A baseline: the same model integrated by ``scipy.integrate.solve_ivp`` (DOP853) with

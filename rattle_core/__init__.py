@@ -15,7 +15,8 @@ from . import jitcache
 
 jitcache.refresh()
 
-from .analysis.classify import Classification, classify, contact_boundary, one_sided_impulse
+from .analysis.classify import Classification, classify
+from .analysis.overlays import contact_boundary, one_sided_impulse
 from .analysis.sections import impact_map, poincare
 from .batch.sweep import SweepResult
 from .batch.sweep import sweep as sweep

@@ -11,7 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 _COMPILED = ("model/excitation.py", "solver/events.py", "solver/kernel.py", "analysis/classify.py",
-             "batch/sweep.py")
+             "batch/chunks.py")
 
 
 def refresh() -> None:

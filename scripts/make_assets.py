@@ -4,7 +4,7 @@ Writes, from the current solver (no cache is read):
 
 * ``rattle_core/assets/paper/fig2.npz``, ``fig4.npz``, ``fig5.npz``, ``fig6.npz`` (package
   data): the bifurcation sweeps
-  of :data:`rattle_core.paper.cases.PRESETS`, compact (float32 impulses and phases) and keyed with
+  of :data:`rattle_core.paper.cases.CASES`, compact (float32 impulses and phases) and keyed with
   their content key, so :func:`rattle_core.paper.cases.paper_sweep` serves them only while they
   match the solver;
 * ``assets/paper/fig2.png`` … ``fig8.png``: the paper's figures, for the README;
@@ -25,10 +25,12 @@ ROOT = Path(__file__).resolve().parent.parent
 FIGURES_DIR = ROOT / "assets" / "paper"
 sys.path.insert(0, str(ROOT))
 
-from rattle_core.store.cache import ASSETS_DIR, save_result  # noqa: E402
-from rattle_core.paper.cases import (PRESETS, SWEEP_CASES, evidence_markdown,  # noqa: E402
-                               phase_convention_evidence, write_paper_figures)
 from rattle_core.batch.sweep import sweep  # noqa: E402
+from rattle_core.paper.cases import CASES, SWEEP_CASES  # noqa: E402
+from rattle_core.paper.evidence import evidence_markdown, phase_convention_evidence  # noqa: E402
+from rattle_core.paper.figures import write_paper_figures  # noqa: E402
+from rattle_core.store.assets import ASSETS_DIR  # noqa: E402
+from rattle_core.store.files import save_result  # noqa: E402
 
 
 def main(argv=None) -> int:
@@ -38,7 +40,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     ASSETS_DIR.mkdir(parents=True, exist_ok=True)
     for key in SWEEP_CASES:
-        case = PRESETS[key]
+        case = CASES[key]
         t = time.perf_counter()
         res = sweep(case.params, case.name, case.values, **case.sweep_settings())
         path = ASSETS_DIR / f"{key}.npz"

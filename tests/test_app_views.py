@@ -178,10 +178,11 @@ def test_apply_values_keeps_good_values_and_reports_bad_ones():
     assert set(errors) == {"lam", "j", "nonsense"}
 
 
-def test_paper_phase_follows_the_core_conversion():
-    """The paper's φ₂ = 45° and 90° are the core's −135° and 180° (sine reference)."""
-    assert st.paper_phase2(45.0) == -135.0
-    assert abs(st.paper_phase2(90.0)) == 180.0
+def test_presets_are_the_papers_cases_in_core_phases():
+    """The Fig 7 and Fig 8 presets put the paper's φ₂ = 45° and 90° in as core −135° and 180°,
+    and the default state opens on the paper's φ₂ = 45°."""
+    assert st.PRESETS["Fig 7"][1]["phi2"] == -135.0
+    assert abs(st.PRESETS["Fig 8"][1]["phi2"]) == 180.0
     assert st.DashboardState().phi2 == -135.0
 
 

@@ -1,5 +1,5 @@
-"""The sweep cache (hits, keys, corrupt and stale entries, location, atomic writes) and the
-shipped paper assets, which must still match the solver."""
+"""The disk cache (hits, keys, matching, corrupt and stale entries, location, atomic writes, the
+size limit) and the shipped paper assets, which must still match the solver."""
 from __future__ import annotations
 
 import os
@@ -9,12 +9,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import rattle_core.store.cache as cache
 import rattle_core.paper.cases as paper
+import rattle_core.store.assets as assets
+import rattle_core.store.cache as cache
 from rattle_core import RattleParams, sweep
-from rattle_core.store.cache import (cache_dir, cached_sweep, find_asset, load_asset, load_result,
-                               save_result, sweep_key)
-from rattle_core.paper.cases import PRESETS, SWEEP_CASES
+from rattle_core.paper.cases import CASES, SWEEP_CASES
+from rattle_core.store.assets import find_asset, load_asset
+from rattle_core.store.cache import cache_dir, cached_sweep, sweep_key
+from rattle_core.store.files import load_result, save_result
 
 BASE = RattleParams(lam=1.0)
 VALS = np.linspace(1.5, 3.5, 12)
@@ -117,36 +119,99 @@ def test_corrupt_entry_is_recomputed(tmp_path, counted, damage):
     _same(good, res)
 
 
-def test_stale_solver_version_is_recomputed(tmp_path, monkeypatch):
+def test_stale_solver_version_is_recomputed(tmp_path, counted):
     """An entry written by another solver (or schema) version is recomputed."""
     good = cached_sweep(BASE, "lam", VALS, directory=tmp_path, **KW)
     (path,) = _entries(tmp_path)
     res, meta = load_result(path)
-    monkeypatch.setattr(cache, "SOLVER_VERSION", "0.0.1-stale")
-    save_result(path, res, key=meta["key"])
-    monkeypatch.undo()
-    counted_sweep = _Counter(cache.sweep)
-    monkeypatch.setattr(cache, "sweep", counted_sweep)
-    assert load_result(path)[1]["solver"] == "0.0.1-stale"
+    for field in ("solver", "schema"):
+        save_result(path, res, key=meta["key"], request={**meta["request"], field: "0.0.1-stale"})
+        again = cached_sweep(BASE, "lam", VALS, directory=tmp_path, **KW)
+        _same(good, again)
+        assert load_result(path)[1]["request"] == meta["request"]
+    assert len(counted) == 3
+
+
+@pytest.mark.parametrize("forged", ["values", "params", "request"])
+def test_entry_must_hold_what_was_asked(tmp_path, counted, forged):
+    """An entry under the right key whose stored values, parameters or request differ from the
+    request is recomputed and overwritten, not served."""
+    good = cached_sweep(BASE, "lam", VALS, directory=tmp_path, **KW)
+    (path,) = _entries(tmp_path)
+    _, meta = load_result(path)
+    if forged == "values":
+        other = sweep(BASE, "lam", VALS + 0.01, **KW)
+        save_result(path, other, key=meta["key"], request=meta["request"])
+    elif forged == "params":
+        other = sweep(BASE.replace(r=0.5), "lam", VALS, **KW)
+        save_result(path, other, key=meta["key"], request=meta["request"])
+    else:
+        request = dict(meta["request"], settings={**meta["request"]["settings"], "record": 11})
+        save_result(path, good, key=meta["key"], request=request)
     again = cached_sweep(BASE, "lam", VALS, directory=tmp_path, **KW)
-    assert counted_sweep.n == 1
+    assert len(counted) == 2 and not again.from_cache
     _same(good, again)
-    assert load_result(path)[1]["solver"] == cache.SOLVER_VERSION
-    # same for the schema version
-    monkeypatch.setattr(cache, "SCHEMA_VERSION", -1)
-    save_result(path, res, key=meta["key"])
-    monkeypatch.setattr(cache, "SCHEMA_VERSION", load_result(path)[1]["schema"] + 1)
+    assert cached_sweep(BASE, "lam", VALS, directory=tmp_path, **KW).from_cache
+
+
+def test_a_directory_at_an_entry_path_is_left_alone(tmp_path, counted):
+    """When a directory stands where an entry goes, the result is computed and returned, and the
+    directory and its contents are never touched."""
+    key = sweep_key(BASE, "lam", VALS, {"mode": "fresh", "x0": None, "v0": 0.0, **KW})
+    blocker = tmp_path / f"sweep-{key[:32]}.npz"
+    blocker.mkdir()
+    (blocker / "keep.txt").write_text("mine")
+    for _ in range(2):
+        res = cached_sweep(BASE, "lam", VALS, directory=tmp_path, **KW)
+        assert len(res.values) == len(VALS) and not res.from_cache
+    assert len(counted) == 2
+    assert blocker.is_dir() and (blocker / "keep.txt").read_text() == "mine"
+    assert sorted(p.name for p in tmp_path.iterdir()) == [blocker.name]
+
+
+def test_size_limit_evicts_the_least_recently_used(tmp_path, monkeypatch, counted):
+    """Past ``RATTLE_CACHE_SIZE_MB`` the least recently used entries go; a hit counts as a use,
+    and the entry just written stays."""
+    runs = [VALS, VALS + 0.1, VALS + 0.2]
+    for v in runs:
+        cached_sweep(BASE, "lam", v, directory=tmp_path, **KW)
+    sizes = {e.path: e.size for e in cache.entries(tmp_path)}
+    assert len(sizes) == 3
+    paths = [tmp_path / f"sweep-{sweep_key(BASE, 'lam', v, {'mode': 'fresh', 'x0': None, 'v0': 0.0, **KW})[:32]}.npz"
+             for v in runs]
+    for age, p in enumerate(paths):  # oldest first, a second apart
+        os.utime(p, (1000 + age, 1000 + age))
+    assert cached_sweep(BASE, "lam", runs[0], directory=tmp_path, **KW).from_cache  # a use
+    limit_mb = (sizes[paths[0]] + sizes[paths[1]] + sizes[paths[2]] - 1) / 1e6
+    monkeypatch.setenv("RATTLE_CACHE_SIZE_MB", repr(limit_mb))
+    cached_sweep(BASE, "lam", VALS + 0.3, directory=tmp_path, **KW)  # a new entry
+    left = {e.path for e in cache.entries(tmp_path)}
+    assert paths[0] in left and paths[1] not in left  # runs[1] was the least recently used
+    assert sum(e.size for e in cache.entries(tmp_path)) <= limit_mb * 1e6
+    monkeypatch.setenv("RATTLE_CACHE_SIZE_MB", "0")
+    cached_sweep(BASE, "lam", VALS + 0.4, directory=tmp_path, **KW)
+    assert [e.path.name for e in cache.entries(tmp_path)] == [
+        f"sweep-{sweep_key(BASE, 'lam', VALS + 0.4, {'mode': 'fresh', 'x0': None, 'v0': 0.0, **KW})[:32]}.npz"]
+
+
+@pytest.mark.parametrize("text", ["-1", "abc", "nan", "1e99"])
+def test_bad_size_limit_names_the_variable(monkeypatch, text):
+    """A size limit that is not a number of megabytes in range is refused by name."""
+    monkeypatch.setenv("RATTLE_CACHE_SIZE_MB", text)
+    with pytest.raises(ValueError, match="RATTLE_CACHE_SIZE_MB"):
+        cache.size_limit()
+
+
+def test_clear_deletes_entries_and_nothing_else(tmp_path):
+    """``clear`` removes the entries and interrupted writes' temporary files, nothing else."""
     cached_sweep(BASE, "lam", VALS, directory=tmp_path, **KW)
-    assert counted_sweep.n == 2
-
-
-class _Counter:
-    def __init__(self, fn):
-        self.fn, self.n = fn, 0
-
-    def __call__(self, *a, **k):
-        self.n += 1
-        return self.fn(*a, **k)
+    (tmp_path / ".tmp-x.npz").write_bytes(b"partial")
+    (tmp_path / "notes.txt").write_text("mine")
+    (tmp_path / "sweep-dir.npz").mkdir()
+    n, freed = cache.clear(tmp_path)
+    assert n == 2 and freed > 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt", "sweep-dir.npz"]
+    assert cache.entries(tmp_path) == []
 
 
 def test_cache_location_from_environment(tmp_path, monkeypatch):
@@ -235,13 +300,13 @@ def test_bad_request_is_refused_before_the_cache(tmp_path):
 @pytest.mark.parametrize("key", SWEEP_CASES)
 def test_asset_matches_preset_and_is_small(key):
     """Each shipped asset loads, is keyed to its preset and the current solver, and is small."""
-    path = cache.ASSETS_DIR / f"{key}.npz"
+    path = assets.ASSETS_DIR / f"{key}.npz"
     assert path.exists(), f"{path} missing: run scripts/make_assets.py"
     assert path.stat().st_size < 2e6
     res = load_asset(key)
     assert res is not None
     _, meta = load_result(path)
-    case = PRESETS[key]
+    case = CASES[key]
     assert meta["key"] == case.cache_key(), "stale asset: run scripts/make_assets.py"
     np.testing.assert_array_equal(res.values, case.values)
     assert res.name == case.name and res.params == case.params
@@ -249,7 +314,8 @@ def test_asset_matches_preset_and_is_small(key):
     counts = res.summary["n_active"] + res.summary["n_reverse"]
     assert counts.sum() == len(res.table)
     assert res.table["impulse"].dtype == np.float64  # widened on load
-    assert find_asset(case.params.with_value(case.name, 1.23), case.name) is not None
+    name, found = find_asset(case.params.with_value(case.name, 1.23), case.name)
+    assert name == key and found is res
 
 
 @pytest.mark.parametrize("key", SWEEP_CASES)
@@ -257,7 +323,7 @@ def test_asset_still_matches_the_solver(key):
     """Ten values of each asset, recomputed now, give the stored impulses (float32 tolerance);
     where the stored response does not repeat (chaos), its statistics instead."""
     res = load_asset(key)
-    case = PRESETS[key]
+    case = CASES[key]
     idx = np.linspace(0, len(case.values) - 1, 10).round().astype(int)
     sub = sweep(case.params, case.name, case.values[idx], **case.sweep_settings())
     counts = (res.summary["n_active"] + res.summary["n_reverse"]).to_numpy()
@@ -293,9 +359,13 @@ def test_paper_sweep_uses_the_asset(monkeypatch, tmp_path):
     res = paper.paper_sweep("fig5")
     assert len(res.values) == 600
     # an asset whose key no longer matches (here: a different solver version) is not used
-    monkeypatch.setattr(cache, "ASSETS_DIR", tmp_path)
-    monkeypatch.setattr(paper, "ASSETS_DIR", tmp_path)
+    monkeypatch.setattr(assets, "ASSETS_DIR", tmp_path)
     save_result(tmp_path / "fig5.npz", res, compact=True, key="stale")
+    with pytest.raises(AssertionError, match="computed"):
+        paper.paper_sweep("fig5")
+    # an asset under the right key whose values differ is not used either
+    save_result(tmp_path / "fig5.npz", sweep(res.params, "lam", [1.0, 2.0], transient=5, record=5),
+                key=CASES["fig5"].cache_key())
     with pytest.raises(AssertionError, match="computed"):
         paper.paper_sweep("fig5")
     with pytest.raises(ValueError, match="fig3"):
@@ -306,7 +376,7 @@ def test_paper_sweep_uses_the_asset(monkeypatch, tmp_path):
 
 def test_missing_or_corrupt_asset_loads_as_none(monkeypatch, tmp_path):
     """A missing or unreadable asset is ``None``, not an error."""
-    monkeypatch.setattr(cache, "ASSETS_DIR", tmp_path)
+    monkeypatch.setattr(assets, "ASSETS_DIR", tmp_path)
     assert load_asset("fig2") is None
     (tmp_path / "fig2.npz").write_bytes(b"junk")
     assert load_asset("fig2") is None

@@ -7,11 +7,12 @@ import numpy as np
 import pytest
 
 from rattle_core import RattleParams, classify, contact_boundary, excitation, simulate
-from rattle_core.analysis.classify import (LYAP_CHAOS, MAX_PERIOD, PERIOD_TOL, REGIME_LETTERS,
-                                  Classification, classify_arrays, classify_batch,
-                                  detect_period, one_sided_impulse,
-                                  one_sided_orbits, period1_limits_harmonic)
 from naive import classify_reference
+from rattle_core.analysis.classify import (LYAP_CHAOS, MAX_PERIOD, PERIOD_TOL, REGIME_LETTERS,
+                                           Classification, classify_arrays, classify_batch,
+                                           detect_period)
+from rattle_core.analysis.overlays import (one_sided_impulse, one_sided_orbits,
+                                           period1_limits_harmonic)
 from rattle_core.model.excitation import TWO_PI
 
 TWO_HARMONICS = [

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from rattle_core import RattleParams, classify, simulate
-from rattle_core.batch.maps import REGIME_CODES, basin_map, regime_map
+from rattle_core.analysis.vocabulary import REGIME_CODES
+from rattle_core.batch.maps import basin_map, regime_map
 
 BASE = RattleParams(lam=2.0, amplitudes=(1.0, 0.25), phases_deg=(0.0, 0.0))
 
@@ -108,9 +109,10 @@ def _full_results(params, columns, x0, v0, transient, record, decimals=4):
     and stroboscopic sample), classified afterwards: how maps were built from whole results."""
     from rattle_core.analysis.classify import detect_period
     from rattle_core.batch.maps import _FLOAT_FIELDS, _fingerprint
-    from rattle_core.batch.sweep import _run_chunk, _summarise
+    from rattle_core.batch.chunks import run_chunk
+    from rattle_core.batch.sweep import _summarise
     n = len(next(iter(columns.values())))
-    chunk = _run_chunk(params, columns, np.arange(n, dtype=np.float64), transient, record, x0, v0)
+    chunk = run_chunk(params, columns, np.arange(n, dtype=np.float64), transient, record, x0, v0)
     summ = _summarise(chunk, record)
     fields = {k: summ[k].to_numpy(dtype=np.float64) for k in _FLOAT_FIELDS}
     fields["regime"] = summ["regime"].map(REGIME_CODES).to_numpy(dtype=np.int8)
@@ -157,12 +159,12 @@ def test_summarised_chunks_equal_full_results(where, request):
 def test_map_tasks_return_per_point_summaries_only():
     """A map task sends back a few numbers per point, not the impacts and strobe samples."""
     from rattle_core.batch.maps import _map_chunk
-    from rattle_core.batch.sweep import _run_chunk
+    from rattle_core.batch.chunks import run_chunk
     n = 48
     cols = {"lam": np.linspace(1.5, 3.5, n), "phi2": np.linspace(0.0, 180.0, n)}
     rows = np.arange(n, dtype=np.float64)
     part = _map_chunk(BASE, cols, rows, 100, 200, None, 0.0)
-    full = _run_chunk(BASE, cols, rows, 100, 200, None, 0.0)
+    full = run_chunk(BASE, cols, rows, 100, 200, None, 0.0)
     # row index, regime code and six float fields per point, plus pickling overhead
     assert len(pickle.dumps(part)) < n * (8 + 1 + 6 * 8) + 2000
     assert len(pickle.dumps(full)) > 10 * len(pickle.dumps(part))
@@ -192,7 +194,6 @@ def test_dask_progress_and_cancel_between_chunks(dask_client):
 
 def test_maps_are_cached(tmp_path, monkeypatch):
     """A repeated map request is served from disk, identical, without recomputing."""
-    from rattle_core.batch import maps
     from rattle_core.store import cache
     kw = dict(transient=30, record=20)
     first = cache.cached_map("regime", BASE, "lam", [1.0, 2.0], "phi2", [0.0, 90.0],
@@ -200,9 +201,10 @@ def test_maps_are_cached(tmp_path, monkeypatch):
 
     def boom(*a, **k):
         raise AssertionError("recomputed")
-    monkeypatch.setattr(maps, "regime_map", boom)
+    monkeypatch.setattr(cache, "regime_map", boom)
     again = cache.cached_map("regime", BASE, "lam", [1.0, 2.0], "phi2", [0.0, 90.0],
                              directory=tmp_path, **kw)
+    assert again.from_cache and not first.from_cache
     for k in first.fields:
         np.testing.assert_array_equal(first.fields[k], again.fields[k])
     with pytest.raises(AssertionError, match="recomputed"):
@@ -222,7 +224,7 @@ def _phys(excitation="displacement"):
 
 def test_run_map_rpm_by_drag_torque_equals_the_regime_map_it_drives():
     """With acceleration amplitudes rpm drives j and drag torque drives Λ: the same map."""
-    from rattle_core.batch.maps import run_map
+    from rattle_core.store.requests import run_map
     phys = _phys("acceleration")
     rpm = np.array([1200.0, 2000.0, 3000.0])
     torque = np.array([0.01, 0.02])
@@ -242,7 +244,8 @@ def test_run_map_rpm_by_drag_torque_equals_the_regime_map_it_drives():
 
 def test_run_map_two_axes_driving_lambda_run_each_point_at_its_own_lambda():
     """With displacement amplitudes rpm and drag torque both drive Λ: each cell is its own run."""
-    from rattle_core.batch.maps import point_params, run_map
+    from rattle_core.batch.plan import point_params
+    from rattle_core.store.requests import run_map
     phys = _phys()
     rpm = np.array([1500.0, 3000.0])
     torque = np.array([0.01, 0.03])
@@ -261,7 +264,7 @@ def test_run_map_two_axes_driving_lambda_run_each_point_at_its_own_lambda():
 
 def test_run_map_basins_in_either_axis_order():
     """(v0, x0) gives the transposed basin map of (x0, v0), labelled with the caller's names."""
-    from rattle_core.batch.maps import run_map
+    from rattle_core.store.requests import run_map
     p = RattleParams(lam=1.16)
     xs, vs = np.linspace(2.0, 8.0, 4), np.linspace(-2.0, 2.0, 3)
     ref = basin_map(p, xs, vs, transient=100)
@@ -272,7 +275,7 @@ def test_run_map_basins_in_either_axis_order():
 
 def test_run_map_is_served_from_the_cache(tmp_path, monkeypatch):
     """A repeated run_map comes from the disk cache, says so, and holds the same values."""
-    from rattle_core.batch.maps import run_map
+    from rattle_core.store.requests import run_map
     monkeypatch.setenv("RATTLE_CACHE_DIR", str(tmp_path))
     kw = dict(transient=30, record=20)
     first = run_map(BASE, None, "lam", [1.0, 2.0], "phi2", [0.0, 90.0], **kw)
@@ -294,7 +297,7 @@ def test_run_map_is_served_from_the_cache(tmp_path, monkeypatch):
 ])
 def test_run_map_rejects_bad_axes_naming_them(args, message):
     """Mismatched, unknown or out-of-range axes raise ValueError naming the axis."""
-    from rattle_core.batch.maps import run_map
+    from rattle_core.store.requests import run_map
     with pytest.raises(ValueError, match=None) as err:
         run_map(_phys().to_dimensionless(), _phys(), *args, use_cache=False, transient=5, record=5)
     assert message in str(err.value)
@@ -302,6 +305,6 @@ def test_run_map_rejects_bad_axes_naming_them(args, message):
 
 def test_run_map_physical_axis_needs_physical_units():
     """A physical axis without PhysicalParams is refused, naming the axis."""
-    from rattle_core.batch.maps import run_map
+    from rattle_core.store.requests import run_map
     with pytest.raises(ValueError, match="y axis 'drag_torque' is physical"):
         run_map(BASE, None, "lam", [1, 2], "drag_torque", [0.01, 0.02], use_cache=False)

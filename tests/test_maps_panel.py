@@ -11,7 +11,8 @@ import pandas as pd
 import pytest
 
 from rattle_core.model.excitation import excitation
-from rattle_core.batch.maps import REGIME_CODES, basin_map, regime_map
+from rattle_core.analysis.vocabulary import REGIME_CODES
+from rattle_core.batch.maps import basin_map, regime_map
 
 
 @pytest.fixture(autouse=True)
@@ -187,7 +188,7 @@ def test_background_compute_and_cancel(panel):
 
 def test_physical_axes_follow_the_units_mode(panel, dash):
     """rpm and drag torque are offered only in physical units, and map through the units."""
-    from rattle_core.batch.maps import point_params
+    from rattle_core.batch.plan import point_params
     from rattle_core.model.units import PhysicalParams
     assert "rpm" not in panel.x_axis.options.values()
     phys = PhysicalParams(inertia=2e-4, radius=0.04, drag_torque=0.02, backlash=160e-6,
@@ -245,7 +246,7 @@ def test_local_dask_cluster_gives_the_same_map(panel):
     for k, v in local.items():
         np.testing.assert_array_equal(panel.result.fields[k], v)
     assert mp.dask_client("local") is mp.dask_client("local")
-    assert len(mp._cluster.workers) == 2
+    assert len(mp.dask_client("local").scheduler_info()["workers"]) == 2
 
 
 def test_click_on_a_physical_map_sets_the_physical_inputs(panel, dash):

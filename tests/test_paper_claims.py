@@ -1,5 +1,5 @@
-"""The paper's five claims (MODEL.md), computed from the solver under the paper's phase reading;
-the literal reading fails them; the presets and the figure writer."""
+"""The paper's five claims (docs/model.md), computed from the solver under the paper's phase
+reading; the literal reading fails them; the cases, the presets and the figure writer."""
 from __future__ import annotations
 
 import math
@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 
 from rattle_core import RattleParams, classify, contact_boundary, simulate
+from rattle_core.analysis.overlays import period1_limits_harmonic
+from rattle_core.model.phases import core_to_paper, paper_to_core, paper_to_core_phases, wrap_deg
+from rattle_core.paper.cases import CASES, explorer_presets, paper_params, poincare_cloud
+from rattle_core.paper.evidence import (claim1_holds, claim2_holds, claim3_holds, claim4_holds,
+                                        claim5_holds, evidence_values, phase_convention_evidence)
+from rattle_core.paper.figures import write_paper_figures
 from rattle_core.store.cache import cached_sweep
-from rattle_core.analysis.classify import period1_limits_harmonic
-from rattle_core.model.params import paper_to_core_phases
-from rattle_core.paper.cases import (PRESETS, claim1_holds, claim2_holds, claim3_holds, claim4_holds,
-                               claim5_holds, core_phi2_to_paper, evidence_values, paper_params,
-                               paper_phi2_to_core, phase_convention_evidence, poincare_cloud,
-                               write_paper_figures)
 
 LAMS = evidence_values()          # 0.5 … 4 step 0.01
 SETTINGS = {"transient": 500, "record": 200}
@@ -50,20 +50,23 @@ def _regimes(summary, lo, hi):
     return s["regime"]
 
 
-def test_paper_reading_is_the_named_preset():
-    """Paper φ2 = 45° and 90° are core −135° and 180° (y = Σ h sin(kt + φ)); presets use them."""
+def test_paper_reading_is_the_named_case():
+    """Paper φ2 = 45° and 90° are core −135° and 180° (y = Σ h sin(kt + φ)); the cases use them."""
     assert paper_to_core_phases((0.0, 45.0)) == (0.0, -135.0)
     assert paper_to_core_phases((0.0, 90.0)) == (0.0, 180.0)
     for key, phi in (("fig4", -135.0), ("fig5", 180.0), ("fig7", -135.0), ("fig8", 180.0)):
-        p = PRESETS[key].params
+        p = CASES[key].params
         assert p.amplitudes == (1.0, 0.25) and p.phases_deg == (0.0, phi)
         assert (p.r, p.j) == (0.65, 8.0)
-    assert PRESETS["fig2"].params.amplitudes == (1.0,)
-    assert PRESETS["fig7"].params.lam == 3.3 and PRESETS["fig8"].params.lam == 3.3
-    assert PRESETS["fig6"].params.lam == 1.95 and PRESETS["fig6"].name == "phi2"
-    paper_axis = PRESETS["fig6"].axis(PRESETS["fig6"].values)
+    assert CASES["fig2"].params.amplitudes == (1.0,)
+    assert CASES["fig7"].params.lam == 3.3 and CASES["fig8"].params.lam == 3.3
+    assert CASES["fig6"].params.lam == 1.95 and CASES["fig6"].name == "phi2"
+    paper_axis = CASES["fig6"].axis(CASES["fig6"].values)
     np.testing.assert_allclose(paper_axis, np.linspace(0, 360, 600), atol=1e-12)
-    np.testing.assert_allclose(core_phi2_to_paper(paper_phi2_to_core([45.0, 90.0])), [45.0, 90.0])
+    np.testing.assert_allclose(core_to_paper(paper_to_core([45.0, 90.0], wrap=False), wrap=False),
+                               [45.0, 90.0])
+    assert paper_to_core(45.0) == -135.0 and core_to_paper(-135.0) == 45.0
+    assert paper_to_core(90.0, k=3) == -270.0 + 360.0 and wrap_deg(-180.0) == 180.0
     # the sin(kt + φ) reading really is that excitation: same y up to a quarter-period shift
     t = np.linspace(0, 7, 50)
     p = paper_params(1.0, 45.0)
@@ -176,3 +179,21 @@ def test_write_paper_figures(tmp_path):
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and p.stat().st_size > 10_000
     done = [d for d, _ in calls]
     assert all(b >= a for a, b in zip(done, done[1:])) and done[-1] == calls[-1][1]
+
+
+def test_explorer_presets_come_from_the_cases():
+    """Each dashboard preset is its paper case's parameters (Figure 3: one per panel's Λ), and
+    the regime a Figure 3 preset names is the one it shows."""
+    presets = {p.label: p for p in explorer_presets()}
+    assert list(presets) == ["Fig 2", "Fig 3B", "Fig 3C", "Fig 3D", "Fig 3E", "Fig 4", "Fig 5",
+                             "Fig 6", "Fig 7", "Fig 8"]
+    for label, preset in presets.items():
+        case = CASES[f"fig{label[4]}"]
+        assert preset.params.replace(lam=case.params.lam) == case.params, label
+        if case.kind != "sweep":
+            assert preset.params.lam in (case.lams or (case.params.lam,)), label
+        assert preset.view["bif"] == ("phi2" if case.name == "phi2" else "lam"), label
+    assert [presets[f"Fig 3{g}"].params.lam for g in "BCDE"] == list(CASES["fig3"].lams)
+    for g in "BCE":
+        tr = simulate(presets[f"Fig 3{g}"].params, periods=200, transient=300, lyapunov=True)
+        assert classify(tr).regime == g

@@ -253,15 +253,15 @@ def test_base_must_be_params():
 def test_summary_equals_classify_arrays_value_for_value():
     """The compiled per-chunk summary equals ``classify_arrays`` run on each value's own
     impacts and section, field by field, over responses of every regime."""
-    import importlib
     from rattle_core.analysis.classify import classify_arrays
-    sw = importlib.import_module("rattle_core.batch.sweep")
+    from rattle_core.batch.chunks import run_chunk
+    from rattle_core.batch.sweep import _summarise
     runs = [(HARM, [0.5, 1.03, 1.147, 1.235, 1.264, 1.41, 1.68, 3.3]),
             (TWO_H, [0.8, 1.09, 1.59, 2.41, 2.47])]
     seen = set()
     for base, vals in runs:
-        chunk = sw._run_chunk(base, "lam", np.array(vals), 150, 40, None, 0.0)
-        summary = sw._summarise(chunk, 40)
+        chunk = run_chunk(base, "lam", np.array(vals), 150, 40, None, 0.0)
+        summary = _summarise(chunk, 40)
         off = 0
         for k, val in enumerate(vals):
             n = chunk["counts"][k]

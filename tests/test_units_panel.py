@@ -13,8 +13,8 @@ from html import escape
 import numpy as np
 import pytest
 
-from rattle_core import units
-from rattle_core.analysis.classify import contact_boundary
+from rattle_core import contact_boundary, units
+from rattle_core.analysis.vocabulary import physical_table
 from rattle_core.model.units import PhysicalParams
 
 
@@ -153,7 +153,7 @@ def test_acceleration_excitation_is_the_same_model(dash, panel):
 def test_table_shows_both_sets_and_si_metrics(dash, panel):
     """The Explorer table lists each physical value beside its dimensionless image, and SI metrics."""
     html = panel.table.object
-    for quantity, phys_value, dimless in panel.phys.table():
+    for quantity, phys_value, dimless in physical_table(panel.phys):
         assert escape(quantity) in html and escape(phys_value) in html and escape(dimless) in html
     cls = dash.classification
     assert f"{panel.phys.frequency_hz:.6g} Hz" in html

@@ -2,6 +2,9 @@
 
 * ``sections``: Poincaré (stroboscopic) and impact maps.
 * ``classify``: regimes A–E, period, Lyapunov exponent, rattle metrics.
+* ``overlays``: closed-form curves (contact boundary, one-sided orbits) drawn over results.
+* ``vocabulary``: each regime's letter, code, meaning and colour; flank colours, labels and
+  exported values; the side-by-side table of physical and dimensionless parameters.
 * ``sound``: the rattle sound synthesised from the impacts.
 
 Imports only the model and the solver.

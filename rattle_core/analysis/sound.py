@@ -53,8 +53,6 @@ import os
 from typing import BinaryIO, Iterable, Literal, Sequence
 
 import numpy as np
-from scipy.io import wavfile
-from scipy.signal import lfilter
 
 from ..model.params import check_range
 from ..solver.trajectory import Trajectory
@@ -206,6 +204,7 @@ def render(impact_times: Sequence[float], amplitudes: Sequence[float], duration:
     # First sample at or after each impact; the impact's sub-sample offset goes into the phase.
     k = np.minimum(np.ceil(t * sample_rate - 1e-9).astype(np.int64), n - 1)
     lag = np.maximum(k * dt - t, 0.0)
+    from scipy.signal import lfilter  # lazily: scipy.signal costs a second at start-up
     for mode in modes:
         w = 2.0 * math.pi * mode.freq_hz
         p = complex(-mode.damping * w, w * math.sqrt(1.0 - mode.damping**2))
@@ -323,6 +322,7 @@ def write_wav(path: str | os.PathLike | BinaryIO, signal: np.ndarray, sample_rat
         raise ValueError(f"signal must be one-dimensional (mono), got shape {s.shape}")
     if not np.all(np.isfinite(s)):
         raise ValueError("signal must be finite")
+    from scipy.io import wavfile
     wavfile.write(path if hasattr(path, "write") else os.fspath(path), sample_rate, to_int16(s))
 
 

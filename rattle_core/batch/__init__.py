@@ -1,7 +1,10 @@
 """Many runs at once: bifurcation sweeps and 2-D maps, in chunks, locally or on Dask.
 
-* ``sweep``: the chunk runner (a parallel numba kernel) and one-parameter sweeps.
+* ``chunks``: the chunk runner, a parallel numba kernel over many parameter rows.
+* ``executor``: where chunks run (this process or a Dask cluster), and Dask clients.
+* ``sweep``: one parameter over many values (:func:`~rattle_core.batch.sweep.sweep`).
 * ``maps``: regime and intensity maps over two parameters, and basins of attraction.
+* ``plan``: maps over physical axes, worked out and checked before they run.
 
 Imports only the model, the solver and the analysis.
 """

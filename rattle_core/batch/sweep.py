@@ -4,36 +4,28 @@
 ``record`` periods recorded, and returns a :class:`SweepResult`: a tidy impact table (value,
 impulse, flank, phase) and a per-value summary (classification and rattle metrics).
 
-* ``mode="fresh"``: every value starts from the same state (``x0``, ``v0`` at t = 0); values
-  run in parallel across cores (``numba.prange``) in chunks, so a caller sees progress between
-  chunks and can cancel.
+* ``mode="fresh"``: every value starts from the same state (``x0``, ``v0`` at t = 0); the
+  values run in chunks (:func:`~rattle_core.batch.chunks.run_chunk`, parallel across cores), so
+  a caller sees progress between chunks and can cancel.
 * ``mode="continuation"``: each value starts from the final state of the previous one, in the
   order given (pass descending values to sweep down); this follows one attractor and reveals
   coexisting ones.
-* ``executor``: a ``dask.distributed.Client`` runs the chunks on a cluster instead; there each
-  chunk runs on one thread, since the workers already share the cores.
-
-Each chunk is classified in one compiled pass (:func:`~rattle_core.classify.classify_batch`),
-with the same numbers as classifying each value on its own.
+* ``executor``: a ``dask.distributed.Client`` runs the chunks on a cluster instead
+  (:func:`~rattle_core.batch.executor.run_chunks`).
 """
 from __future__ import annotations
 
 import dataclasses
 import math
-import os
-import sys
-import threading
 from typing import TYPE_CHECKING, Any, Callable, Sequence
 
-import numba
 import numpy as np
-from numba import njit, prange
 
-from ..solver import kernel as solver
-from ..analysis.classify import REGIME_LETTERS, classify_batch
-from ..model.excitation import excitation
+from ..analysis.vocabulary import regime_letters
 from ..model.params import RattleParams, check_range, parse_name
 from ..solver.trajectory import MAX_PERIODS, SOLVER_VERSION, _check_int
+from .chunks import param_arrays, run_chunk, summary_arrays
+from .executor import run_chunks
 
 if TYPE_CHECKING:  # pandas is imported on first use: it costs a quarter second at start-up
     import pandas as pd
@@ -41,67 +33,9 @@ if TYPE_CHECKING:  # pandas is imported on first use: it costs a quarter second 
 #: Largest number of values one sweep may hold.
 MAX_VALUES = 1_000_000
 SCHEMA_VERSION = 1
-# Numba's workqueue threading layer aborts the whole process when two threads launch a parallel
-# kernel at once (Dask worker threads, dashboard jobs); launches are therefore serialised.
-_KERNEL_LOCK = threading.Lock()
-
-
-@njit(cache=True, nogil=True)
-def _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
-               imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
-               final_x, final_v):
-    imp_t = np.empty(cap)
-    imp_w = np.empty(cap)
-    seg_t = np.empty(0)
-    seg_k = np.empty(0, dtype=np.int8)
-    seg_x = np.empty(0)
-    seg_v = np.empty(0)
-    out = solver._integrate(lam[i], r[i], j[i], h[i], phi[i], vs[i], 0, 0.0, x0[i], v0[i],
-                            n_tr + n_rec, n_tr, 0.0, max_imp, True,
-                            imp_t, imp_tau[i], imp_I[i], imp_w, imp_flank[i],
-                            seg_t, seg_k, seg_x, seg_v, str_x[i], str_v[i])
-    status[i] = out[0]
-    counts[i] = out[1]
-    final_x[i] = out[6]
-    final_v[i] = out[7]
-    lt = out[10]
-    lyap[i] = out[9] / lt if lt > 0 else np.nan
-    stick[i] = out[11]
-
-
-@njit(parallel=True, cache=True, nogil=True)
-def _sweep_kernel(lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
-                  imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
-                  final_x, final_v):
-    for i in prange(lam.shape[0]):
-        _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
-                   imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
-                   final_x, final_v)
-
-
-# The same loop on one thread, for a chunk running as a Dask task: the cluster's workers
-# already share the cores out, and a parallel kernel per task would put workers × cores
-# threads on them.  It needs no launch lock either, so a worker's threads run side by side.
-@njit(cache=True, nogil=True)
-def _sweep_kernel_serial(lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
-                         imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
-                         final_x, final_v):
-    for i in range(lam.shape[0]):
-        _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
-                   imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
-                   final_x, final_v)
-
-
-def _in_dask_worker() -> bool:
-    """True when called from a task on a Dask worker (distributed is then already imported)."""
-    distributed = sys.modules.get("distributed")
-    if distributed is None:
-        return False
-    try:
-        distributed.get_worker()
-    except ValueError:
-        return False
-    return True
+SUMMARY_COLUMNS = ["value", "regime", "period", "n_active", "n_reverse", "active_per_period",
+                   "reverse_per_period", "chaotic", "lyapunov", "stick_fraction", "intensity",
+                   "status"]
 
 
 @dataclasses.dataclass
@@ -125,6 +59,8 @@ class SweepResult:
         reverse_per_period, chaotic, lyapunov, stick_fraction, intensity, status.
     cancelled : bool
         True when the caller cancelled; then only the values done are present.
+    from_cache : bool
+        True when the result was read from the disk cache (:mod:`rattle_core.store.cache`).
     """
 
     name: str
@@ -134,145 +70,15 @@ class SweepResult:
     table: pd.DataFrame
     summary: pd.DataFrame
     cancelled: bool = False
-
-
-def _param_arrays(base: RattleParams, columns: dict[str, np.ndarray]):
-    """Per-value parameter arrays for one or more swept names; validates every value range."""
-    nv = len(next(iter(columns.values())))
-    kmax = base.n_harmonics
-    for name in columns:
-        kind, k = parse_name(name)
-        kmax = max(kmax, k)
-    for name, values in columns.items():
-        # every check is a range check, so the extreme values settle the whole column
-        for v in (float(np.min(values)), float(np.max(values))):
-            base.with_value(name, v)
-    h = np.zeros((nv, kmax))
-    phi = np.zeros((nv, kmax))
-    h[:, :base.n_harmonics] = base.h
-    phi[:, :base.n_harmonics] = base.phi
-    cols = {"lam": np.full(nv, base.lam), "r": np.full(nv, base.r), "j": np.full(nv, base.j),
-            "v_stick": np.full(nv, base.v_stick)}
-    for name, values in columns.items():
-        kind, k = parse_name(name)
-        if kind == "h":
-            h[:, k - 1] = values
-        elif kind == "phi":
-            phi[:, k - 1] = np.deg2rad(values)
-        else:
-            cols[kind] = np.asarray(values, dtype=np.float64)
-    return cols["lam"], cols["r"], cols["j"], h, phi, cols["v_stick"]
-
-
-def _run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transient: int,
-               record: int, x0: float | np.ndarray | None, v0: float | np.ndarray,
-               max_impacts_per_period: int = solver.MAX_IMPACTS_PER_PERIOD) -> dict:
-    """Run one chunk of values in parallel; returns plain arrays (picklable, for Dask too).
-
-    ``name`` is one swept name (``values`` its values) or a dict of name → per-value arrays
-    (then ``values`` labels the rows).  ``x0``/``v0`` may be per-value arrays of absolute
-    start states; positions are clipped into each value's backlash.
-    """
-    values = np.asarray(values, dtype=np.float64)
-    columns = name if isinstance(name, dict) else {name: values}
-    lam, r, j, h, phi, vs = _param_arrays(base, columns)
-    nv = len(values)
-    # a grid repeats each excitation many times: evaluate y(0) once per distinct one
-    hp, inverse = np.unique(np.hstack([h, phi]), axis=0, return_inverse=True)
-    kh = h.shape[1]
-    y0 = np.array([float(excitation(0.0, row[:kh], row[kh:])) for row in hp])[inverse.ravel()]
-    if x0 is None:
-        xs = y0 + 0.5 * j
-    else:
-        xs = np.clip(np.broadcast_to(np.asarray(x0, dtype=np.float64), (nv,)), y0, y0 + j)
-    vs0 = np.broadcast_to(np.asarray(v0, dtype=np.float64), (nv,)).copy()
-    cap = 8 * record + 64
-    on_worker = _in_dask_worker()
-    todo = np.arange(nv)
-    if not on_worker:
-        # the parallel kernel hands each thread one contiguous block of values; neighbouring
-        # values cost alike, so dealing them out in turn evens out the threads' shares
-        nt = numba.get_num_threads()
-        todo = np.concatenate([todo[t::nt] for t in range(nt)])
-    res = {"counts": np.zeros(nv, np.int64), "status": np.zeros(nv, np.int64),
-           "lyap": np.full(nv, np.nan), "stick": np.zeros(nv), "final_x": np.zeros(nv),
-           "final_v": np.zeros(nv), "str_x": np.zeros((nv, record)), "str_v": np.zeros((nv, record))}
-    impacts: list = [None] * nv
-    while len(todo):
-        m = len(todo)
-        imp_tau = np.empty((m, cap))
-        imp_I = np.empty((m, cap))
-        imp_fl = np.empty((m, cap), dtype=np.int8)
-        counts = np.zeros(m, np.int64)
-        status = np.zeros(m, np.int64)
-        str_x = np.zeros((m, record))
-        str_v = np.zeros((m, record))
-        lyap = np.zeros(m)
-        stick = np.zeros(m)
-        fx = np.zeros(m)
-        fv = np.zeros(m)
-        args = (lam[todo], r[todo], j[todo], np.ascontiguousarray(h[todo]),
-                np.ascontiguousarray(phi[todo]), vs[todo], np.ascontiguousarray(xs[todo]),
-                vs0[todo], transient, record, max_impacts_per_period, cap,
-                imp_tau, imp_I, imp_fl, counts, status, str_x, str_v, lyap, stick, fx, fv)
-        if on_worker:
-            _sweep_kernel_serial(*args)
-        else:
-            with _KERNEL_LOCK:
-                _sweep_kernel(*args)
-        again = []
-        for a, i in enumerate(todo):
-            if status[a] == solver.OVERFLOW_IMPACTS:
-                again.append(i)
-                continue
-            c = counts[a]
-            impacts[i] = (imp_I[a, :c].copy(), imp_fl[a, :c].copy(), imp_tau[a, :c].copy())
-            res["counts"][i] = c
-            res["status"][i] = status[a]
-            res["lyap"][i] = lyap[a]
-            res["stick"][i] = stick[a]
-            res["final_x"][i] = fx[a]
-            res["final_v"][i] = fv[a]
-            res["str_x"][i] = str_x[a]
-            res["str_v"][i] = str_v[a]
-        todo = np.array(again, dtype=np.int64)
-        cap *= 8
-    res["impulse"] = np.concatenate([imp[0] for imp in impacts]) if nv else np.empty(0)
-    res["flank"] = np.concatenate([imp[1] for imp in impacts]) if nv else np.empty(0, np.int8)
-    res["phase"] = np.concatenate([imp[2] for imp in impacts]) if nv else np.empty(0)
-    res["values"] = values
-    res["j"] = j
-    return res
-
-
-#: Regime letters of the summary, indexed by :func:`_summary_arrays`' ``regime_code``.
-REGIME_ORDER = REGIME_LETTERS + ("error",)
-_REGIME_OBJ = np.array(REGIME_ORDER, dtype=object)
-SUMMARY_COLUMNS = ["value", "regime", "period", "n_active", "n_reverse", "active_per_period",
-                   "reverse_per_period", "chaotic", "lyapunov", "stick_fraction", "intensity",
-                   "status"]
-
-
-def _summary_arrays(chunk: dict, record: int) -> dict:
-    """Per-value classification of a chunk, as arrays (one compiled pass over all values).
-
-    ``regime_code`` indexes :data:`REGIME_ORDER`: a run that did not finish (status ≠ 0) is
-    ``"error"`` whatever its partial window looks like.
-    """
-    cl = classify_batch(chunk["counts"], chunk["impulse"], chunk["flank"], chunk["str_x"],
-                        chunk["str_v"], record, chunk["stick"], chunk["lyap"], chunk["j"])
-    status = np.asarray(chunk["status"], dtype=np.int64)
-    cl["regime_code"] = np.where(status == 0, cl["regime"], len(REGIME_ORDER) - 1).astype(np.int8)
-    cl["status"] = status
-    return cl
+    from_cache: bool = False
 
 
 def _summarise(chunk: dict, record: int) -> pd.DataFrame:
     import pandas as pd
-    cl = _summary_arrays(chunk, record)
+    cl = summary_arrays(chunk, record)
     cols = dict(cl)
     cols["value"] = np.asarray(chunk["values"], dtype=np.float64)
-    cols["regime"] = _REGIME_OBJ[cl["regime_code"]]
+    cols["regime"] = regime_letters(cl["regime_code"])
     return pd.DataFrame({k: cols[k] for k in SUMMARY_COLUMNS})
 
 
@@ -342,7 +148,7 @@ def sweep(base: RattleParams, name: str, values: Sequence[float], transient: int
     if not isinstance(base, RattleParams):
         raise ValueError(f"base must be a RattleParams, got {type(base).__name__}")
     vals, transient, record = validate_sweep_args(name, values, transient, record, mode)
-    _param_arrays(base, {name: vals})  # validates the range of the swept values
+    param_arrays(base, {name: vals})  # validates the range of the swept values
     if x0 is not None:
         x0 = check_range("x0", x0, -1e6, 1e6)
     v0 = check_range("v0", v0, -1e6, 1e6)
@@ -360,36 +166,16 @@ def sweep(base: RattleParams, name: str, values: Sequence[float], transient: int
             if cancel is not None and cancel():
                 cancelled = True
                 break
-            c = _run_chunk(base, name, vals[i:i + 1], transient, record, x, v)
+            c = run_chunk(base, name, vals[i:i + 1], transient, record, x, v)
             chunks.append(c)
             x, v = float(c["final_x"][0]), float(c["final_v"][0])
             if progress is not None and ((i + 1) % chunk_size == 0 or i + 1 == nv):
                 progress(i + 1, nv)
-    elif executor is not None:
-        futures = [executor.submit(_run_chunk, base, name, vals[s:s + chunk_size], transient,
-                                   record, x0, v0, pure=False)
-                   for s in range(0, nv, chunk_size)]
-        from dask.distributed import as_completed
-        done = 0
-        for fut in as_completed(futures):
-            if cancel is not None and cancel():
-                for f in futures:
-                    f.cancel()
-                cancelled = True
-                break
-            done += 1
-            if progress is not None:
-                progress(min(done * chunk_size, nv), nv)
-        if not cancelled:
-            chunks = [f.result() for f in futures]
     else:
-        for s in range(0, nv, chunk_size):
-            if cancel is not None and cancel():
-                cancelled = True
-                break
-            chunks.append(_run_chunk(base, name, vals[s:s + chunk_size], transient, record, x0, v0))
-            if progress is not None:
-                progress(min(s + chunk_size, nv), nv)
+        starts = range(0, nv, chunk_size)
+        tasks = [(base, name, vals[s:s + chunk_size], transient, record, x0, v0) for s in starts]
+        chunks, cancelled = run_chunks(run_chunk, tasks, [len(t[2]) for t in tasks],
+                                       executor=executor, progress=progress, cancel=cancel)
     import pandas as pd
     if chunks:
         table = pd.concat([_table(c) for c in chunks], ignore_index=True)
@@ -402,7 +188,3 @@ def sweep(base: RattleParams, name: str, values: Sequence[float], transient: int
     return SweepResult(name=name, values=done_vals, params=base, settings=settings, table=table,
                        summary=summary, cancelled=cancelled)
 
-
-def default_threads() -> int:
-    """Threads numba uses for sweeps (``NUMBA_NUM_THREADS`` or the core count)."""
-    return int(os.environ.get("NUMBA_NUM_THREADS", os.cpu_count() or 1))

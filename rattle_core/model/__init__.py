@@ -2,7 +2,8 @@
 
 * ``params``: :class:`RattleParams`, the one canonical, validated parameter set, and its cache key.
 * ``excitation``: the driving tooth's motion ``y(t) = Σ h_k cos(k t − φ_k)`` and its bounds.
+* ``phases``: the paper's phase convention and the core's, and angle wrapping.
 * ``units``: physical units (kg·m², N·m, µm, rpm) to and from the dimensionless model.
 
-Imports nothing else from :mod:`rattle_core`.
+Imports nothing else from :mod:`rattle_core`; no formatting, no colours.
 """

@@ -18,6 +18,8 @@ from typing import Any, Iterable
 
 import numpy as np
 
+from .phases import paper_to_core_phases
+
 #: Allowed ranges, shared by validation messages, the CLI and the dashboard's widgets.
 LAM_RANGE = (0.0, 1.0e4)  # open at 0
 R_RANGE = (0.0, 1.0)
@@ -148,7 +150,7 @@ class RattleParams:
     def paper(cls, lam: float, r: float = 0.65, j: float = 8.0,
               amplitudes: Iterable[float] = (1.0,), phases_deg: Iterable[float] = (0.0,),
               v_stick: float = 1e-6) -> "RattleParams":
-        """Parameters given in the paper's phase convention (see :func:`paper_to_core_phases`)."""
+        """Parameters given in the paper's phase convention (:mod:`rattle_core.model.phases`)."""
         return cls(lam=lam, r=r, j=j, amplitudes=tuple(amplitudes),
                    phases_deg=paper_to_core_phases(phases_deg), v_stick=v_stick)
 
@@ -185,33 +187,6 @@ class RattleParams:
     def key(self, **settings: Any) -> str:
         """SHA-256 of the canonical parameters plus any settings (used as a cache key)."""
         return canonical_hash({"params": self.canonical(), **settings})
-
-
-def paper_to_core_phases(phases_deg: Iterable[float]) -> tuple[float, ...]:
-    """Convert phases from the paper's reading to the core convention.
-
-    The paper's figures are reproduced (all five claims of MODEL.md) when its excitation reads
-    ``y = Σ h_k sin(k t + φ_k)`` (sine reference, phase lead).  Shifting time by π/2 turns that
-    into the core's ``Σ h_k cos(k t − φ'_k)`` with ``φ'_k = −φ_k − (k − 1)·90°``; for the paper's
-    ``φ₂ = 45°`` and ``90°`` this gives ``φ'₂ = −135°`` and ``−180°``.  The evidence is produced
-    by ``rattle paper`` (``phase_convention.md``).
-    """
-    return tuple(_wrap_deg(-float(p) - 90.0 * k) for k, p in enumerate(phases_deg))
-
-
-def core_to_paper_phases(phases_deg: Iterable[float]) -> tuple[float, ...]:
-    """Inverse of :func:`paper_to_core_phases`."""
-    return tuple(_wrap_deg(-float(p) - 90.0 * k) for k, p in enumerate(phases_deg))
-
-
-def _wrap_deg(p: float) -> float:
-    """Phase in (−180°, 180°]; exact for the multiples of 45° used by the presets."""
-    w = math.fmod(p, 360.0)
-    if w <= -180.0:
-        w += 360.0
-    elif w > 180.0:
-        w -= 360.0
-    return w + 0.0
 
 
 def _as_tuple(name: str, seq: Any) -> tuple:

@@ -1,6 +1,6 @@
 """Physical units: an NVH engineer's inputs, mapped to the dimensionless model and back.
 
-The rattle model (paper eq. 1-11, ``MODEL.md``) is solved in dimensionless form.  This module
+The rattle model (paper eq. 1-11, ``docs/model.md``) is solved in dimensionless form.  This module
 is the one place where kg·m², N·m, µm and rpm are turned into ``Λ, j, h_k, φ_k`` and where
 dimensionless results (times, positions, impulses) are turned back into seconds, metres and
 newton-seconds.
@@ -53,6 +53,7 @@ from typing import Any, Literal
 import numpy as np
 
 from .params import PHASE_RANGE_DEG, R_RANGE, V_STICK_RANGE, RattleParams, check_range
+from .phases import wrap_deg
 
 #: Allowed ranges of the physical inputs (SI units), shared by validation, the CLI and the app.
 INERTIA_RANGE = (0.0, 10.0)          # kg·m², open at 0
@@ -67,11 +68,6 @@ ALPHA_RANGE = (0.0, 1.0e9)           # rad/s², angular acceleration amplitude
 ExcitationKind = Literal["displacement", "acceleration"]
 _KINDS = ("displacement", "acceleration")
 SOLVE_FOR = ("rpm", "drag_torque", "inertia", "amplitude")
-
-
-def wrap_deg(angle: float) -> float:
-    """Angle in degrees wrapped to the interval (−180, 180]."""
-    return 180.0 - ((180.0 - float(angle)) % 360.0)
 
 
 def omega_from_rpm(rpm: Any, order: float = 2.0) -> np.ndarray | float:
@@ -464,32 +460,6 @@ class PhysicalParams:
         """A copy at another engine speed (amplitudes of the declared kind held)."""
         return self.replace(rpm=rpm)
 
-    def table(self) -> list[tuple[str, str, str]]:
-        """Rows ``(quantity, physical value, dimensionless value)``, for side-by-side display."""
-        p = self.to_dimensionless()
-        unit = "rad" if self.excitation == "displacement" else "rad/s²"
-        sym = "θ" if self.excitation == "displacement" else "α"
-        rows = [
-            ("inertia J, radius R_b", f"{self.inertia:.6g} kg·m², {self.radius:.6g} m",
-             f"m = J/R_b² = {self.mass:.6g} kg"),
-            ("drag torque C", f"{self.drag_torque:.6g} N·m", f"F = C/R_b = {self.force:.6g} N"),
-            ("engine speed, order", f"{self.rpm:.6g} rpm, order {self.order:g}",
-             f"ω = {self.omega:.6g} rad/s ({self.frequency_hz:.6g} Hz)"),
-            (f"{sym}₁ (harmonic 1)", f"{self.amplitudes[0]:.6g} {unit}",
-             f"H₁ = {self.H1 * 1e6:.6g} µm"),
-            ("Λ = m H₁ ω² / F", "", f"{p.lam:.6g}"),
-            ("backlash b", f"{self.backlash_um:.6g} µm ({self.backlash_deg:.6g}°)", f"j = {p.j:.6g}"),
-        ]
-        for k in range(2, p.n_harmonics + 1):
-            rows.append((f"harmonic {k} ({sym}_{k}, phase)",
-                         f"{self.amplitudes[k - 1]:.6g} {unit}, {self.phases_deg[k - 1]:.6g}°",
-                         f"h_{k} = {p.amplitudes[k - 1]:.6g}, φ_{k} = {p.phases_deg[k - 1]:.6g}°"))
-        rows.append(("restitution r", f"{self.r:.6g}", f"{p.r:.6g}"))
-        rows.append(("limit impact velocity", f"{self.v_stick_mps:.6g} m/s", f"v_stick = {p.v_stick:.6g}"))
-        rows.append(("impulse scale m ω H₁", f"{self.impulse_scale:.6g} N·s", "Ĩ = 1"))
-        rows.append(("time scale 1/ω", f"{1.0 / self.omega:.6g} s", "t = 1"))
-        return rows
-
 
 def _scale(values: Any, factor: float) -> np.ndarray | float:
     arr = np.asarray(values, dtype=np.float64) * factor
@@ -615,7 +585,7 @@ def example() -> PhysicalParams:
 
 __all__ = [
     "PhysicalParams", "lam_from_rpm", "j_from_rpm", "impulse_scale_from_rpm", "rpm_from_lam", "rpm_sweep", "omega_from_rpm",
-    "rpm_from_omega", "backlash_from_um", "backlash_from_angle", "wrap_deg", "example",
+    "rpm_from_omega", "backlash_from_um", "backlash_from_angle", "example",
     "INERTIA_RANGE", "RADIUS_RANGE", "DRAG_TORQUE_RANGE", "BACKLASH_RANGE", "RPM_RANGE",
     "ORDER_RANGE", "THETA_RANGE", "ALPHA_RANGE", "SOLVE_FOR",
 ]

@@ -1,43 +1,56 @@
-"""Content-addressed disk cache of sweeps, and the precomputed diagrams shipped in ``assets/``.
+"""Content-addressed disk cache of sweeps and maps, with a size limit.
 
-Key: SHA-256 of canonical JSON (floats as ``float.hex()``) of the base parameters, the swept
-name and values, the sweep settings, :data:`~rattle_core.sweep.SCHEMA_VERSION` and
-:data:`~rattle_core.trajectory.SOLVER_VERSION`.  A changed solver or schema therefore never
-serves a stale diagram.
-
-Entries are compressed ``.npz`` files written to a temporary file and moved into place with
-``os.replace`` (atomic), and read with ``allow_pickle=False``.  A corrupt, truncated or
-mismatched entry is recomputed and overwritten, never an error.
-
-Location: ``$RATTLE_CACHE_DIR``, else ``$XDG_CACHE_HOME/rattle-explorer``, else
-``~/.cache/rattle-explorer``.
+Key
+    SHA-256 of canonical JSON (floats as ``float.hex()``) of the request: the kind, the base
+    parameters, the swept names and values, the settings that change the result,
+    :data:`~rattle_core.batch.sweep.SCHEMA_VERSION` and
+    :data:`~rattle_core.solver.trajectory.SOLVER_VERSION`.  A changed solver or schema therefore
+    never serves a stale result.
+Match
+    An entry is served only when its stored request equals the one asked, field by field, and
+    its arrays hold the values asked for; the file name (the key's first 32 hex digits) only
+    finds it.  An entry that is unreadable, truncated, foreign or mismatched is recomputed and
+    overwritten, never an error.  Something else standing at an entry's path (a directory, a
+    socket) is left alone: the result is computed and returned without being stored.
+Writes
+    Compressed ``.npz`` (:mod:`rattle_core.store.files`), atomic; a read-only or full disk costs
+    the entry, not the result.  Cancelled results are not stored.
+Size
+    At most :func:`size_limit` bytes, ``RATTLE_CACHE_SIZE_MB`` megabytes (default
+    :data:`DEFAULT_SIZE_MB`, 1024).  After each write the least recently used entries (a hit
+    counts as a use) are deleted until the cache fits; the entry just written is kept.
+Location
+    ``$RATTLE_CACHE_DIR``, else ``$XDG_CACHE_HOME/rattle-explorer``, else
+    ``~/.cache/rattle-explorer``.
 """
 from __future__ import annotations
 
-import json
+import dataclasses
+import math
 import os
-import tempfile
+import stat
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
-import pandas as pd
 
-from ..model.params import RattleParams, canonical_hash
+from ..batch.maps import MapResult, basin_map, regime_map
 from ..batch.sweep import SCHEMA_VERSION, SweepResult, sweep, validate_sweep_args
+from ..model.params import RattleParams, _canon, canonical_hash
 from ..solver.trajectory import SOLVER_VERSION
+from .files import load_map, load_result, save_map, save_result
 
-#: Shipped precomputed diagrams (the paper's sweeps): package data, so a wheel install has them.
-ASSETS_DIR = Path(__file__).resolve().parents[1] / "assets" / "paper"
-
-_SUMMARY_TYPES = {"value": np.float64, "regime": "U8", "period": np.int32, "n_active": np.int32,
-                  "n_reverse": np.int32, "active_per_period": np.float64,
-                  "reverse_per_period": np.float64, "chaotic": np.bool_, "lyapunov": np.float64,
-                  "stick_fraction": np.float64, "intensity": np.float64, "status": np.int8}
+#: Default size limit of the cache, in megabytes (``RATTLE_CACHE_SIZE_MB`` overrides it).
+DEFAULT_SIZE_MB = 1024
+SIZE_MB_RANGE = (0.0, 1.0e7)
+#: File-name prefixes of cache entries; nothing else in the directory is ever deleted.
+PREFIXES = ("sweep", "map")
+_SWEEP_SETTINGS = ("transient", "record", "mode", "x0", "v0")
+_MAP_SETTINGS = ("transient", "record", "x0", "v0", "decimals")
 
 
 def cache_dir() -> Path:
-    """The cache directory (created on demand)."""
+    """The cache directory (created on the first write)."""
     env = os.environ.get("RATTLE_CACHE_DIR")
     if env:
         return Path(env)
@@ -45,181 +58,214 @@ def cache_dir() -> Path:
     return (Path(xdg) if xdg else Path.home() / ".cache") / "rattle-explorer"
 
 
-def sweep_key(base: RattleParams, name: str, values: np.ndarray, settings: dict) -> str:
-    """Cache key of a sweep request."""
-    keyed = {k: settings[k] for k in ("transient", "record", "mode", "x0", "v0")}
-    return canonical_hash({"kind": "sweep", "params": base.canonical(), "name": name,
-                           "values": np.asarray(values, dtype=np.float64),
-                           "settings": keyed, "schema": SCHEMA_VERSION, "solver": SOLVER_VERSION})
-
-
-def _atomic_savez(path: Path, arrays: dict) -> None:
-    """Write a compressed npz to a temporary file beside ``path``, then move it into place."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".npz")
+def size_limit() -> int:
+    """The cache's size limit in bytes, from ``RATTLE_CACHE_SIZE_MB`` (default 1024 MB)."""
+    text = os.environ.get("RATTLE_CACHE_SIZE_MB", "").strip()
+    if not text:
+        return DEFAULT_SIZE_MB * 1_000_000
     try:
-        with os.fdopen(fd, "wb") as f:
-            np.savez_compressed(f, **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+        mb = float(text)
+    except ValueError:
+        mb = math.nan
+    if not SIZE_MB_RANGE[0] <= mb <= SIZE_MB_RANGE[1]:
+        raise ValueError(f"RATTLE_CACHE_SIZE_MB = {text!r} is outside the allowed range "
+                         f"[{SIZE_MB_RANGE[0]:g}, {SIZE_MB_RANGE[1]:g}] (megabytes)")
+    return int(mb * 1_000_000)
 
 
-def save_result(path: Path | str, result: SweepResult, compact: bool = False,
-                key: str | None = None) -> None:
-    """Write ``result`` atomically.  ``compact`` stores impulses and phases as float32."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fdt = np.float32 if compact else np.float64
-    meta = {"name": result.name, "params": result.params.to_dict(), "settings": result.settings,
-            "key": key, "schema": SCHEMA_VERSION, "solver": SOLVER_VERSION}
-    arrays: dict[str, Any] = {
-        "meta": np.array(json.dumps(meta)),
-        "values": np.asarray(result.values, dtype=np.float64),
-        # the swept value stays float64 even in compact form: it identifies the row's value
-        # (``table.value == summary.value``); runs of equal values cost almost nothing compressed
-        "t_value": result.table["value"].to_numpy(dtype=np.float64),
-        "t_impulse": result.table["impulse"].to_numpy(dtype=fdt),
-        "t_flank": result.table["flank"].to_numpy(dtype=np.int8),
-        "t_phase": result.table["phase"].to_numpy(dtype=fdt),
-    }
-    for col, dt in _SUMMARY_TYPES.items():
-        arrays[f"s_{col}"] = result.summary[col].to_numpy().astype(dt)
-    _atomic_savez(path, arrays)
+# ----- requests and keys --------------------------------------------------------------------
+
+def sweep_request(base: RattleParams, name: str, values, settings: dict) -> dict:
+    """What a sweep's result depends on; its :func:`canonical_hash` is the cache key."""
+    return {"kind": "sweep", "params": base.canonical(), "name": name,
+            "values": np.asarray(values, dtype=np.float64),
+            "settings": {k: settings[k] for k in _SWEEP_SETTINGS},
+            "schema": SCHEMA_VERSION, "solver": SOLVER_VERSION}
 
 
-def load_result(path: Path | str) -> tuple[SweepResult, dict]:
-    """Read a result written by :func:`save_result`; returns ``(result, meta)``."""
-    with np.load(path, allow_pickle=False) as z:
-        meta = json.loads(str(z["meta"]))
-        table = pd.DataFrame({"value": z["t_value"].astype(np.float64),
-                              "impulse": z["t_impulse"].astype(np.float64),
-                              "flank": z["t_flank"], "phase": z["t_phase"].astype(np.float64)})
-        summary = pd.DataFrame({col: z[f"s_{col}"] for col in _SUMMARY_TYPES})
-        values = z["values"]
-    params = RattleParams.from_dict(meta["params"])
-    return SweepResult(name=meta["name"], values=values, params=params, settings=meta["settings"],
-                       table=table, summary=summary), meta
+def sweep_key(base: RattleParams, name: str, values, settings: dict) -> str:
+    """Cache key of a sweep request (also the key a shipped diagram carries)."""
+    return canonical_hash(sweep_request(base, name, values, settings))
+
+
+def map_request(kind: str, params: RattleParams, x_name: str, x_values, y_name: str, y_values,
+                settings: dict) -> dict:
+    """What a map's result depends on; its :func:`canonical_hash` is the cache key."""
+    return {"kind": kind, "params": params.canonical(), "x_name": x_name,
+            "x_values": np.asarray(x_values, dtype=np.float64), "y_name": y_name,
+            "y_values": np.asarray(y_values, dtype=np.float64),
+            "settings": {k: v for k, v in settings.items() if k in _MAP_SETTINGS},
+            "schema": SCHEMA_VERSION, "solver": SOLVER_VERSION}
+
+
+# ----- the one wrapper ----------------------------------------------------------------------
+
+def cached(prefix: str, request: dict, compute: Callable[[], Any],
+           load: Callable[[Path], tuple[Any, dict]], save: Callable[..., None],
+           holds: Callable[[Any], bool], directory: Path | str | None = None) -> tuple[Any, bool]:
+    """Serve ``request`` from the cache, or ``compute()`` and store it; ``(result, from_cache)``.
+
+    ``holds(result)`` checks that a loaded entry's arrays are the ones asked for; the stored
+    request must also equal ``request``.  See the module docstring for every other rule.
+    """
+    key = canonical_hash(request)
+    wanted = _canon(request)
+    folder = Path(directory) if directory is not None else cache_dir()
+    path = folder / f"{prefix}-{key[:32]}.npz"
+    storable = True
+    if _is_file(path):
+        try:
+            result, meta = load(path)
+            if meta.get("key") == key and meta.get("request") == wanted and holds(result):
+                _touch(path)
+                return result, True
+        except Exception:
+            pass  # unreadable or foreign entry: recompute and overwrite it below
+    elif os.path.lexists(path):
+        storable = False
+    result = compute()
+    if storable and not result.cancelled:
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            save(path, result, key=key, request=wanted)
+            evict(folder, keep=(path,))
+        except OSError:
+            pass  # a read-only or full disk must not cost the user the computed result
+    return result, False
 
 
 def cached_sweep(base: RattleParams, name: str, values, transient: int = 500, record: int = 200,
                  mode: str = "fresh", x0: float | None = None, v0: float = 0.0, progress=None,
                  cancel=None, chunk_size: int | None = None, executor: Any = None,
                  directory: Path | str | None = None) -> SweepResult:
-    """:func:`~rattle_core.sweep.sweep`, served from the disk cache when the same request ran before.
-
-    A cancelled sweep is returned but not stored.
-    """
+    """:func:`~rattle_core.batch.sweep.sweep`, served from the disk cache when the same request
+    ran before (``result.from_cache``).  A cancelled sweep is returned but not stored."""
     vals, transient, record = validate_sweep_args(name, values, transient, record, mode)
     settings = {"transient": transient, "record": record, "mode": mode,
                 "x0": None if x0 is None else float(x0), "v0": float(v0)}
-    key = sweep_key(base, name, vals, settings)
-    path = Path(directory) if directory is not None else cache_dir()
-    path = path / f"sweep-{key[:32]}.npz"
-    if path.exists():
-        try:
-            result, meta = load_result(path)
-            if (meta.get("key") == key and meta.get("solver") == SOLVER_VERSION
-                    and meta.get("schema") == SCHEMA_VERSION):
-                if progress is not None:
-                    progress(len(vals), len(vals))
-                return result
-        except Exception:
-            pass  # unreadable or foreign entry: recompute and overwrite it below
-    result = sweep(base, name, vals, transient=transient, record=record, mode=mode, x0=x0, v0=v0,
-                   progress=progress, cancel=cancel, chunk_size=chunk_size, executor=executor)
-    if not result.cancelled:
-        try:
-            save_result(path, result, key=key)
-        except OSError:
-            pass  # a read-only or full disk must not cost the user the computed diagram
+
+    def compute() -> SweepResult:
+        return sweep(base, name, vals, transient=transient, record=record, mode=mode, x0=x0,
+                     v0=v0, progress=progress, cancel=cancel, chunk_size=chunk_size,
+                     executor=executor)
+
+    def holds(res: SweepResult) -> bool:
+        return (res.name == name and res.params.canonical() == base.canonical()
+                and np.array_equal(res.values, vals))
+
+    result, hit = cached("sweep", sweep_request(base, name, vals, settings), compute,
+                         lambda p: load_result(p), save_result, holds, directory)
+    if hit:
+        if progress is not None:
+            progress(len(vals), len(vals))
+        result = dataclasses.replace(result, from_cache=True)
     return result
-
-
-def list_assets() -> list[str]:
-    """Names of the shipped diagrams (e.g. ``fig2``)."""
-    return sorted(p.stem for p in ASSETS_DIR.glob("*.npz"))
-
-
-def load_asset(name: str) -> SweepResult | None:
-    """A shipped diagram by name (``fig2``, ``fig4``, ``fig5``, ``fig6``), or None if absent."""
-    path = ASSETS_DIR / f"{name}.npz"
-    if not path.exists():
-        return None
-    try:
-        return load_result(path)[0]
-    except Exception:
-        return None
-
-
-def find_asset(base: RattleParams, name: str) -> SweepResult | None:
-    """A shipped diagram that sweeps ``name`` with every other parameter equal to ``base``'s."""
-    for asset in list_assets():
-        res = load_asset(asset)
-        if res is None or res.name != name:
-            continue
-        if res.params.with_value(name, base.get(name)).canonical() == base.canonical():
-            return res
-    return None
-
-
-def save_map(path: Path | str, result, key: str | None = None) -> None:
-    """Write a :class:`~rattle_core.maps.MapResult` atomically."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    meta = {"kind": result.kind, "x_name": result.x_name, "y_name": result.y_name,
-            "params": result.params.to_dict(), "settings": result.settings,
-            "attractors": result.attractors, "key": key, "schema": SCHEMA_VERSION,
-            "solver": SOLVER_VERSION}
-    arrays = {"meta": np.array(json.dumps(meta)), "x_values": result.x_values,
-              "y_values": result.y_values}
-    arrays.update({f"f_{k}": v for k, v in result.fields.items()})
-    _atomic_savez(path, arrays)
-
-
-def load_map(path: Path | str):
-    """Read a map written by :func:`save_map`; returns ``(result, meta)``."""
-    from ..batch.maps import MapResult
-    with np.load(path, allow_pickle=False) as z:
-        meta = json.loads(str(z["meta"]))
-        fields = {k[2:]: z[k] for k in z.files if k.startswith("f_")}
-        xv, yv = z["x_values"], z["y_values"]
-    return MapResult(kind=meta["kind"], x_name=meta["x_name"], y_name=meta["y_name"],
-                     x_values=xv, y_values=yv, params=RattleParams.from_dict(meta["params"]),
-                     settings=meta["settings"], fields=fields,
-                     attractors=[dict(a, section_point=tuple(a["section_point"]))
-                                 for a in meta["attractors"]]), meta
 
 
 def cached_map(kind: str, params: RattleParams, x_name: str, x_values, y_name: str, y_values,
-               directory: Path | str | None = None, **kwargs: Any):
-    """:func:`~rattle_core.maps.regime_map` (``kind="regime"``) or
-    :func:`~rattle_core.maps.basin_map` (``kind="basin"``; names are ``x0``/``v0``), served from
-    the disk cache when the same request ran before.  A cancelled map is not stored."""
-    from ..batch import maps
+               directory: Path | str | None = None, **kwargs: Any) -> MapResult:
+    """:func:`~rattle_core.batch.maps.regime_map` (``kind="regime"``) or
+    :func:`~rattle_core.batch.maps.basin_map` (``kind="basin"``; names are ``x0``/``v0``),
+    served from the disk cache when the same request ran before (``result.from_cache``).
+    A cancelled map is not stored."""
     if kind not in ("regime", "basin"):
         raise ValueError(f"kind = {kind!r}; allowed: 'regime' or 'basin'")
-    keyed = {k: v for k, v in kwargs.items() if k in ("transient", "record", "x0", "v0", "decimals")}
-    key = canonical_hash({"kind": kind, "params": params.canonical(), "x_name": x_name,
-                          "x_values": np.asarray(x_values, dtype=np.float64), "y_name": y_name,
-                          "y_values": np.asarray(y_values, dtype=np.float64), "settings": keyed,
-                          "schema": SCHEMA_VERSION, "solver": SOLVER_VERSION})
-    path = (Path(directory) if directory is not None else cache_dir()) / f"map-{key[:32]}.npz"
-    if path.exists():
+    xv = np.asarray(x_values, dtype=np.float64)
+    yv = np.asarray(y_values, dtype=np.float64)
+
+    def compute() -> MapResult:
+        if kind == "regime":
+            return regime_map(params, x_name, x_values, y_name, y_values, **kwargs)
+        return basin_map(params, x_values, y_values, **kwargs)
+
+    def holds(res: MapResult) -> bool:
+        return (res.kind == kind and (res.x_name, res.y_name) == (x_name, y_name)
+                and res.params.canonical() == params.canonical()
+                and np.array_equal(res.x_values, xv) and np.array_equal(res.y_values, yv))
+
+    request = map_request(kind, params, x_name, xv, y_name, yv, kwargs)
+    result, hit = cached("map", request, compute, load_map, save_map, holds, directory)
+    return dataclasses.replace(result, from_cache=True) if hit else result
+
+
+# ----- size limit, listing and clearing -----------------------------------------------------
+
+@dataclasses.dataclass(frozen=True)
+class Entry:
+    """One cache file: its path, kind (``sweep`` or ``map``), size in bytes and last use."""
+
+    path: Path
+    kind: str
+    size: int
+    last_used: float
+
+
+def _is_file(path: Path) -> bool:
+    try:
+        return stat.S_ISREG(os.lstat(path).st_mode)
+    except OSError:
+        return False
+
+
+def _touch(path: Path) -> None:
+    try:
+        os.utime(path)
+    except OSError:
+        pass  # a read-only cache still serves; only the eviction order suffers
+
+
+def entries(directory: Path | str | None = None) -> list[Entry]:
+    """The cache's entries, least recently used first (regular files named like entries only)."""
+    folder = Path(directory) if directory is not None else cache_dir()
+    out = []
+    for prefix in PREFIXES:
+        for p in folder.glob(f"{prefix}-*.npz"):
+            try:
+                st = os.lstat(p)
+            except OSError:
+                continue
+            if stat.S_ISREG(st.st_mode):
+                out.append(Entry(p, prefix, st.st_size, st.st_mtime))
+    return sorted(out, key=lambda e: (e.last_used, e.path.name))
+
+
+def evict(directory: Path | str | None = None, limit: int | None = None,
+          keep: tuple[Path, ...] = ()) -> list[Path]:
+    """Delete the least recently used entries until the cache fits ``limit`` bytes (default
+    :func:`size_limit`); entries in ``keep`` stay.  Returns the paths deleted."""
+    limit = size_limit() if limit is None else int(limit)
+    found = entries(directory)
+    total = sum(e.size for e in found)
+    kept = {Path(k) for k in keep}
+    gone = []
+    for e in found:
+        if total <= limit:
+            break
+        if e.path in kept:
+            continue
         try:
-            result, meta = load_map(path)
-            if meta.get("key") == key:
-                return result
-        except Exception:
-            pass  # unreadable entry: recompute and overwrite it below
-    if kind == "regime":
-        result = maps.regime_map(params, x_name, x_values, y_name, y_values, **kwargs)
-    else:
-        result = maps.basin_map(params, x_values, y_values, **kwargs)
-    if not result.cancelled:
-        try:
-            save_map(path, result, key=key)
+            e.path.unlink()
         except OSError:
-            pass  # a read-only or full disk must not cost the user the computed map
-    return result
+            continue
+        total -= e.size
+        gone.append(e.path)
+    return gone
+
+
+def clear(directory: Path | str | None = None) -> tuple[int, int]:
+    """Delete every entry (and temporary files left by interrupted writes); returns
+    ``(files deleted, bytes freed)``.  Nothing else in the directory is touched."""
+    folder = Path(directory) if directory is not None else cache_dir()
+    victims = [(e.path, e.size) for e in entries(folder)]
+    for p in folder.glob(".tmp-*.npz"):
+        if _is_file(p):
+            victims.append((p, p.stat().st_size))
+    n = freed = 0
+    for p, size in victims:
+        try:
+            p.unlink()
+        except OSError:
+            continue
+        n += 1
+        freed += size
+    return n, freed

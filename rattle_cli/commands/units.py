@@ -1,0 +1,35 @@
+"""``rattle units``: physical inputs beside the dimensionless numbers they become."""
+from __future__ import annotations
+
+import argparse
+
+from rattle_core.analysis.vocabulary import physical_table
+
+from ..common import info, label
+from ..options import add_model_options, build_params
+
+HELP = "show physical and dimensionless parameters side by side"
+
+
+def add_parser(sub, quiet) -> None:
+    p = sub.add_parser("units", parents=[quiet], formatter_class=argparse.HelpFormatter, help=HELP,
+                       description="Convert physical inputs to Λ, j, h_k, φ_k and print both sets.")
+    add_model_options(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Print the physical and dimensionless parameters side by side."""
+    params, phys = build_params(args)
+    if phys is None:
+        info(args, f"dimensionless: {label(params, phys)}, v_stick = {params.v_stick:g}")
+        info(args, "(give physical inputs, e.g. --inertia --radius --drag-torque --backlash-um "
+                   "--rpm --theta-amp, to see them side by side)")
+        return 0
+    rows = physical_table(phys)
+    w0 = max(len(r[0]) for r in rows)
+    w1 = max(len(r[1]) for r in rows)
+    print(f"{'quantity':<{w0}}  {'physical':<{w1}}  dimensionless")
+    for a, b, c in rows:
+        print(f"{a:<{w0}}  {b:<{w1}}  {c}")
+    return 0

@@ -1,0 +1,119 @@
+"""Matplotlib pictures of sweeps and maps, shared by the paper's figures and the CLI's PNGs.
+
+Colours and labels come from :mod:`rattle_core.analysis.vocabulary`, so a regime or a flank
+looks the same in every picture and in the dashboard.  Figures use the Agg canvas directly, not
+pyplot: no global backend or state is touched inside a web server or a CLI.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from ..analysis.vocabulary import (ACTIVE, FLANK_COLOURS, FLANK_LABELS, LETTERS, REGIME_COLOURS,
+                                   REVERSE)
+
+
+def agg_figure(figsize: tuple[float, float], dpi: int = 110):
+    """A matplotlib ``Figure`` on its own Agg canvas."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=figsize, dpi=dpi)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def scatter_flanks(ax, x, impulse, flank, size: float, signs: bool = False) -> None:
+    """Impulses against ``x``, one colour per flank; ``signs`` adds "(Ĩ > 0)" to the labels."""
+    x, impulse, flank = (np.asarray(a) for a in (x, impulse, flank))
+    for side, sign in ((ACTIVE, " (Ĩ > 0)"), (REVERSE, " (Ĩ < 0)")):
+        sel = flank == side
+        ax.scatter(x[sel], impulse[sel], s=size, c=FLANK_COLOURS[side], marker=".",
+                   linewidths=0, rasterized=True,
+                   label=FLANK_LABELS[side] + (sign if signs else ""))
+    ax.axhline(0.0, color="0.6", lw=0.5)
+
+
+def regime_strip(ax, x: np.ndarray, regimes: Sequence[str]) -> None:
+    """A strip of coloured cells, one per swept value, with a legend of the regimes present."""
+    from matplotlib.colors import ListedColormap
+    from matplotlib.patches import Patch
+    letters = list(LETTERS)
+    codes = np.array([letters.index(g) if g in letters else len(letters) - 1 for g in regimes])
+    order = np.argsort(x)
+    x, codes = np.asarray(x)[order], codes[order]
+    edges = np.concatenate([[x[0]], 0.5 * (x[1:] + x[:-1]), [x[-1]]]) if len(x) > 1 \
+        else np.array([x[0] - 0.5, x[0] + 0.5])
+    ax.pcolormesh(edges, [0, 1], codes[None, :], cmap=ListedColormap([REGIME_COLOURS[g] for g in letters]),
+                  vmin=-0.5, vmax=len(letters) - 0.5, shading="flat", rasterized=True)
+    ax.set_yticks([])
+    ax.set_xlim(edges[0], edges[-1])
+    ax.tick_params(labelbottom=False)
+    present = [g for g in letters if g in set(regimes)]
+    ax.legend(handles=[Patch(color=REGIME_COLOURS[g], label=g) for g in present],
+              loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=len(present), fontsize=7,
+              frameon=False, handlelength=1.0, columnspacing=0.8)
+
+
+def sweep_png(path: Path | str, x, impulse, flank, xlabel: str, title: str) -> None:
+    """A bifurcation diagram: impulse against the swept value, coloured by flank."""
+    fig = agg_figure((9.0, 5.5), dpi=120)
+    ax = fig.add_subplot()
+    size = float(min(6.0, max(0.5, 2e4 / max(len(impulse), 1))))  # dots shrink as points crowd
+    scatter_flanks(ax, x, impulse, flank, size)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("dimensionless impulse Ĩ")
+    ax.set_title(title, fontsize=9)
+    ax.legend(loc="upper left", markerscale=12, fontsize=8, frameon=False)
+    fig.tight_layout()
+    fig.savefig(path)
+
+
+def map_png(path: Path | str, result: Any, xlabel: str, ylabel: str, title: str) -> None:
+    """A map: regimes (or, for basins, the attractor reached) on the left, rattle intensity on
+    the right (log scale over four decades; blank where there are no impacts)."""
+    from matplotlib import colormaps
+    from matplotlib.colors import ListedColormap, LogNorm
+    from matplotlib.patches import Patch
+    x, y = result.x_values, result.y_values
+    extent = [x[0], x[-1], y[0], y[-1]] if x.size > 1 and y.size > 1 else None
+    fig = agg_figure((12.0, 5.0))
+    ax1, ax2 = fig.subplots(1, 2)
+    if result.kind == "basin":
+        att = result.fields["attractor"].astype(float)
+        att[att < 0] = np.nan
+        n = max(2, len(result.attractors))
+        cmap = colormaps["tab20"].resampled(n)
+        ax1.imshow(att, origin="lower", aspect="auto", extent=extent, cmap=cmap,
+                   vmin=-0.5, vmax=n - 0.5, interpolation="nearest")
+        handles = [Patch(color=cmap(i), label=f"{a['regime']} period {a['period']}")
+                   for i, a in enumerate(result.attractors[:10])]
+        ax1.set_title("attractor reached", fontsize=10)
+    else:
+        colours = [REGIME_COLOURS[g] for g in LETTERS]
+        reg = result.fields["regime"].astype(float)
+        reg[reg < 0] = np.nan
+        ax1.imshow(reg, origin="lower", aspect="auto", extent=extent, cmap=ListedColormap(colours),
+                   vmin=-0.5, vmax=len(LETTERS) - 0.5, interpolation="nearest")
+        present = {int(c) for c in np.unique(result.fields["regime"]) if c >= 0}
+        handles = [Patch(color=colours[c], label=LETTERS[c]) for c in sorted(present)]
+        ax1.set_title("regime", fontsize=10)
+    ax1.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0),
+               frameon=False)
+    inten = np.asarray(result.fields["intensity"], dtype=float)
+    positive = inten[np.isfinite(inten) & (inten > 0)]
+    shown = np.where(inten > 0, inten, np.nan)
+    # four decades are enough; the faint chatter tail would otherwise wash out the scale
+    norm = (LogNorm(vmin=max(positive.min(), 1e-4 * positive.max()), vmax=positive.max(), clip=True)
+            if positive.size else None)
+    im = ax2.imshow(shown, origin="lower", aspect="auto", extent=extent, cmap="magma",
+                    norm=norm, interpolation="nearest")
+    fig.colorbar(im, ax=ax2, label="rattle intensity Σ Ĩ² per period")
+    ax2.set_title("rattle intensity (blank: no impacts)", fontsize=10)
+    for ax in (ax1, ax2):
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path)

@@ -1,0 +1,151 @@
+"""Data flows one way: every import, static or dynamic, points to the same layer or a lower one.
+
+Layers, lowest first: ``rattle_core.model`` → ``solver`` → ``analysis`` → ``batch`` →
+``store`` → ``paper`` → the ``rattle_core`` package itself (the facade that re-exports the
+public names) → the top: the CLI (``rattle_cli``) and the dashboard (``app``, installed as
+``rattle_app``).  ``rattle_core.jitcache`` sits below them all.  The test reads the source with
+:mod:`ast`, so an import inside a function, under ``TYPE_CHECKING`` or spelled
+``importlib.import_module("...")`` / ``__import__("...")`` counts like any other.
+"""
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+CORE_LAYERS = ("model", "solver", "analysis", "batch", "store", "paper")
+BASE = -1
+FACADE = len(CORE_LAYERS)
+TOP = FACADE + 1
+TOP_PACKAGES = ("rattle_cli", "app", "rattle_app")
+#: Third-party packages that only the top layer may use (the core draws no widgets).
+UI_PACKAGES = ("panel", "bokeh", "holoviews", "datashader", "param", "tqdm")
+
+
+def layer_of(module: str) -> int | None:
+    """The layer of a module name, or None for the standard library and third parties."""
+    parts = module.split(".")
+    if parts[0] in TOP_PACKAGES:
+        return TOP
+    if parts[0] != "rattle_core":
+        return None
+    if len(parts) == 1:
+        return FACADE
+    if parts[1] in CORE_LAYERS:
+        return CORE_LAYERS.index(parts[1])
+    if parts[1] == "jitcache":
+        return BASE
+    raise AssertionError(f"{module}: every module of rattle_core belongs to a layer")
+
+
+def module_name(path: Path) -> str:
+    rel = path.relative_to(ROOT).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def _resolve(module: str, is_package: bool, level: int, name: str | None) -> str:
+    """The absolute module named by a (possibly relative) import inside ``module``."""
+    if level == 0:
+        return name or ""
+    base = module.split(".")
+    if not is_package:
+        base = base[:-1]
+    base = base[:len(base) - (level - 1)]
+    return ".".join(base + ([name] if name else []))
+
+
+def imports_of(module: str, source: str, is_package: bool = False) -> list[tuple[int, str]]:
+    """``(line, absolute module)`` of every import in ``source``; a dynamic import whose target
+    is not a string literal is returned as ``"<dynamic>"``, since it cannot be checked."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            found += [(node.lineno, a.name) for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            target = _resolve(module, is_package, node.level, node.module)
+            # ``from pkg import name`` is checked at pkg: a layer's sub-packages share its layer
+            found.append((node.lineno, target))
+        elif isinstance(node, ast.Call):
+            f = node.func
+            name = f.attr if isinstance(f, ast.Attribute) else getattr(f, "id", "")
+            if name in ("import_module", "__import__"):
+                arg = node.args[0] if node.args else None
+                if isinstance(arg, ast.Constant) and isinstance(arg.value, str):
+                    level = len(arg.value) - len(arg.value.lstrip("."))
+                    found.append((node.lineno, _resolve(module, is_package, level,
+                                                        arg.value.lstrip(".") or None)))
+                else:
+                    found.append((node.lineno, "<dynamic>"))
+    return found
+
+
+def violations(module: str, source: str, is_package: bool = False) -> list[str]:
+    """Imports of ``module`` that point to a higher layer, or that cannot be checked."""
+    own = layer_of(module)
+    out = []
+    for line, target in imports_of(module, source, is_package):
+        if target == "<dynamic>":
+            out.append(f"{module}:{line}: a dynamic import whose target is not a literal")
+            continue
+        target_layer = layer_of(target)
+        if target_layer is not None and own is not None and target_layer > own:
+            out.append(f"{module}:{line}: imports {target} (a higher layer)")
+        top = target.split(".")[0]
+        if own is not None and own < TOP and top in UI_PACKAGES:
+            out.append(f"{module}:{line}: imports {top}, which only the top layer may use")
+        if own is not None and own < CORE_LAYERS.index("paper") and top == "matplotlib":
+            out.append(f"{module}:{line}: draws with matplotlib below the paper layer")
+    return out
+
+
+def project_modules() -> list[tuple[str, Path]]:
+    files = [p for d in ("rattle_core", "rattle_cli", "app") for p in (ROOT / d).rglob("*.py")]
+    return [(module_name(p), p) for p in sorted(files)]
+
+
+def test_every_import_points_down():
+    """No module imports a higher layer, and the core never imports the CLI or the dashboard."""
+    found = []
+    for module, path in project_modules():
+        found += violations(module, path.read_text(encoding="utf-8"), path.name == "__init__.py")
+    assert found == []
+
+
+def test_every_core_module_has_a_layer():
+    """Each module of rattle_core lives in one of the layer packages (or is the facade)."""
+    for module, _ in project_modules():
+        if module.startswith("rattle_core"):
+            assert layer_of(module) is not None, module
+
+
+@pytest.mark.parametrize("module, source, expected", [
+    ("rattle_core.model.params", "from ..solver.trajectory import simulate", "rattle_core.solver"),
+    ("rattle_core.solver.kernel", "def f():\n    from rattle_core.batch import sweep",
+     "rattle_core.batch"),
+    ("rattle_core.store.cache", "import importlib\nimportlib.import_module('app.main')", "app.main"),
+    ("rattle_core.batch.maps", "m = __import__('rattle_core.paper.cases')", "rattle_core.paper"),
+    ("rattle_core.analysis.classify", "from rattle_core import simulate", "rattle_core"),
+    ("rattle_core.analysis.classify", "import panel as pn", "panel"),
+    ("rattle_core.batch.sweep", "import matplotlib.pyplot", "matplotlib"),
+    ("rattle_core.paper.cases", "import importlib\nimportlib.import_module(name)", "dynamic"),
+])
+def test_the_checker_sees_upward_imports(module, source, expected):
+    """The checker flags each kind of upward import it is meant to catch."""
+    found = violations(module, source)
+    assert len(found) == 1 and expected in found[0], found
+
+
+@pytest.mark.parametrize("module, source", [
+    ("rattle_core.batch.sweep", "from ..solver import kernel as solver"),
+    ("rattle_core.paper.cases", "from ..store.cache import cached_sweep\nimport matplotlib"),
+    ("rattle_cli.main", "import importlib\nimportlib.import_module('rattle_app.main')"),
+    ("rattle_core.solver.trajectory", "from . import kernel"),
+])
+def test_the_checker_accepts_downward_imports(module, source):
+    """Imports of the same or a lower layer pass."""
+    assert violations(module, source) == []
