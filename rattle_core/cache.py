@@ -33,7 +33,8 @@ ASSETS_DIR = Path(__file__).resolve().parent.parent / "assets" / "paper"
 _SUMMARY_TYPES = {"value": np.float64, "regime": "U8", "period": np.int32, "n_active": np.int32,
                   "n_reverse": np.int32, "active_per_period": np.float64,
                   "reverse_per_period": np.float64, "chaotic": np.bool_, "lyapunov": np.float64,
-                  "stick_fraction": np.float64, "intensity": np.float64, "status": np.int8}
+                  "stick_fraction": np.float64, "intensity": np.float64,
+                  "sticking": "U22", "loop_amplification": np.float64, "status": np.int8}
 
 
 def cache_dir() -> Path:
@@ -48,6 +49,7 @@ def cache_dir() -> Path:
 def sweep_key(base: RattleParams, name: str, values: np.ndarray, settings: dict) -> str:
     """Cache key of a sweep request."""
     keyed = {k: settings[k] for k in ("transient", "record", "mode", "x0", "v0")}
+    keyed["noise"] = bool(settings.get("noise", True))
     return canonical_hash({"kind": "sweep", "params": base.canonical(), "name": name,
                            "values": np.asarray(values, dtype=np.float64),
                            "settings": keyed, "schema": SCHEMA_VERSION, "solver": SOLVER_VERSION})
@@ -106,14 +108,14 @@ def load_result(path: Path | str) -> tuple[SweepResult, dict]:
 def cached_sweep(base: RattleParams, name: str, values, transient: int = 500, record: int = 200,
                  mode: str = "fresh", x0: float | None = None, v0: float = 0.0, progress=None,
                  cancel=None, chunk_size: int | None = None, executor: Any = None,
-                 directory: Path | str | None = None) -> SweepResult:
+                 directory: Path | str | None = None, noise: bool = True) -> SweepResult:
     """:func:`~rattle_core.sweep.sweep`, served from the disk cache when the same request ran before.
 
     A cancelled sweep is returned but not stored.
     """
     vals, transient, record = validate_sweep_args(name, values, transient, record, mode)
     settings = {"transient": transient, "record": record, "mode": mode,
-                "x0": None if x0 is None else float(x0), "v0": float(v0)}
+                "x0": None if x0 is None else float(x0), "v0": float(v0), "noise": noise}
     key = sweep_key(base, name, vals, settings)
     path = Path(directory) if directory is not None else cache_dir()
     path = path / f"sweep-{key[:32]}.npz"
@@ -128,7 +130,8 @@ def cached_sweep(base: RattleParams, name: str, values, transient: int = 500, re
         except Exception:
             pass  # unreadable or foreign entry: recompute and overwrite it below
     result = sweep(base, name, vals, transient=transient, record=record, mode=mode, x0=x0, v0=v0,
-                   progress=progress, cancel=cancel, chunk_size=chunk_size, executor=executor)
+                   progress=progress, cancel=cancel, chunk_size=chunk_size, executor=executor,
+                   noise=noise)
     if not result.cancelled:
         try:
             save_result(path, result, key=key)

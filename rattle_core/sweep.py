@@ -30,9 +30,9 @@ import numpy as np
 from numba import njit, prange
 
 from . import solver
-from .classify import REGIME_LETTERS, classify_batch
+from .classify import REGIME_LETTERS, STICKING_KINDS, classify_batch
 from .excitation import excitation
-from .params import RattleParams, check_range, parse_name
+from .params import RattleParams, check_bool, check_range, parse_name
 from .trajectory import MAX_PERIODS, SOLVER_VERSION, _check_int
 
 if TYPE_CHECKING:  # pandas is imported on first use: it costs a quarter second at start-up
@@ -40,7 +40,7 @@ if TYPE_CHECKING:  # pandas is imported on first use: it costs a quarter second 
 
 #: Largest number of values one sweep may hold.
 MAX_VALUES = 1_000_000
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 # Numba's workqueue threading layer aborts the whole process when two threads launch a parallel
 # kernel at once (Dask worker threads, dashboard jobs); launches are therefore serialised.
 _KERNEL_LOCK = threading.Lock()
@@ -49,7 +49,7 @@ _KERNEL_LOCK = threading.Lock()
 @njit(cache=True, nogil=True)
 def _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
                imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
-               final_x, final_v):
+               final_x, final_v, noise, rounding, loop_amp, kicks):
     imp_t = np.empty(cap)
     imp_w = np.empty(cap)
     seg_t = np.empty(0)
@@ -57,7 +57,7 @@ def _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
     seg_x = np.empty(0)
     seg_v = np.empty(0)
     out = solver._integrate(lam[i], r[i], j[i], h[i], phi[i], vs[i], 0, 0.0, x0[i], v0[i],
-                            n_tr + n_rec, n_tr, 0.0, max_imp, True,
+                            n_tr + n_rec, n_tr, 0.0, max_imp, True, noise,
                             imp_t, imp_tau[i], imp_I[i], imp_w, imp_flank[i],
                             seg_t, seg_k, seg_x, seg_v, str_x[i], str_v[i])
     status[i] = out[0]
@@ -67,16 +67,19 @@ def _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
     lt = out[10]
     lyap[i] = out[9] / lt if lt > 0 else np.nan
     stick[i] = out[11]
+    rounding[i] = out[13]
+    loop_amp[i] = out[14]
+    kicks[i] = out[15]
 
 
 @njit(parallel=True, cache=True, nogil=True)
 def _sweep_kernel(lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
                   imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
-                  final_x, final_v):
+                  final_x, final_v, noise, rounding, loop_amp, kicks):
     for i in prange(lam.shape[0]):
         _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
                    imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
-                   final_x, final_v)
+                   final_x, final_v, noise, rounding, loop_amp, kicks)
 
 
 # The same loop on one thread, for a chunk running as a Dask task: the cluster's workers
@@ -85,11 +88,11 @@ def _sweep_kernel(lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
 @njit(cache=True, nogil=True)
 def _sweep_kernel_serial(lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
                          imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
-                         final_x, final_v):
+                         final_x, final_v, noise, rounding, loop_amp, kicks):
     for i in range(lam.shape[0]):
         _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
                    imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
-                   final_x, final_v)
+                   final_x, final_v, noise, rounding, loop_amp, kicks)
 
 
 def _in_dask_worker() -> bool:
@@ -166,7 +169,8 @@ def _param_arrays(base: RattleParams, columns: dict[str, np.ndarray]):
 
 def _run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transient: int,
                record: int, x0: float | np.ndarray | None, v0: float | np.ndarray,
-               max_impacts_per_period: int = solver.MAX_IMPACTS_PER_PERIOD) -> dict:
+               max_impacts_per_period: int = solver.MAX_IMPACTS_PER_PERIOD,
+               noise: bool = True) -> dict:
     """Run one chunk of values in parallel; returns plain arrays (picklable, for Dask too).
 
     ``name`` is one swept name (``values`` its values) or a dict of name → per-value arrays
@@ -196,7 +200,9 @@ def _run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transie
         todo = np.concatenate([todo[t::nt] for t in range(nt)])
     res = {"counts": np.zeros(nv, np.int64), "status": np.zeros(nv, np.int64),
            "lyap": np.full(nv, np.nan), "stick": np.zeros(nv), "final_x": np.zeros(nv),
-           "final_v": np.zeros(nv), "str_x": np.zeros((nv, record)), "str_v": np.zeros((nv, record))}
+           "final_v": np.zeros(nv), "str_x": np.zeros((nv, record)), "str_v": np.zeros((nv, record)),
+           "rounding": np.zeros(nv, np.bool_), "loop_amp": np.full(nv, -np.inf),
+           "kicks": np.zeros(nv, np.int64)}
     impacts: list = [None] * nv
     while len(todo):
         m = len(todo)
@@ -211,10 +217,14 @@ def _run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transie
         stick = np.zeros(m)
         fx = np.zeros(m)
         fv = np.zeros(m)
+        rnd = np.zeros(m, np.bool_)
+        lamp = np.zeros(m)
+        kk = np.zeros(m, np.int64)
         args = (lam[todo], r[todo], j[todo], np.ascontiguousarray(h[todo]),
                 np.ascontiguousarray(phi[todo]), vs[todo], np.ascontiguousarray(xs[todo]),
                 vs0[todo], transient, record, max_impacts_per_period, cap,
-                imp_tau, imp_I, imp_fl, counts, status, str_x, str_v, lyap, stick, fx, fv)
+                imp_tau, imp_I, imp_fl, counts, status, str_x, str_v, lyap, stick, fx, fv,
+                bool(noise), rnd, lamp, kk)
         if on_worker:
             _sweep_kernel_serial(*args)
         else:
@@ -235,6 +245,9 @@ def _run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transie
             res["final_v"][i] = fv[a]
             res["str_x"][i] = str_x[a]
             res["str_v"][i] = str_v[a]
+            res["rounding"][i] = rnd[a]
+            res["loop_amp"][i] = lamp[a] / np.log(10.0)
+            res["kicks"][i] = kk[a]
         todo = np.array(again, dtype=np.int64)
         cap *= 8
     res["impulse"] = np.concatenate([imp[0] for imp in impacts]) if nv else np.empty(0)
@@ -250,7 +263,8 @@ REGIME_ORDER = REGIME_LETTERS + ("error",)
 _REGIME_OBJ = np.array(REGIME_ORDER, dtype=object)
 SUMMARY_COLUMNS = ["value", "regime", "period", "n_active", "n_reverse", "active_per_period",
                    "reverse_per_period", "chaotic", "lyapunov", "stick_fraction", "intensity",
-                   "status"]
+                   "sticking", "loop_amplification", "status"]
+_STICKING_OBJ = np.array(STICKING_KINDS, dtype=object)
 
 
 def _summary_arrays(chunk: dict, record: int) -> dict:
@@ -260,7 +274,8 @@ def _summary_arrays(chunk: dict, record: int) -> dict:
     ``"error"`` whatever its partial window looks like.
     """
     cl = classify_batch(chunk["counts"], chunk["impulse"], chunk["flank"], chunk["str_x"],
-                        chunk["str_v"], record, chunk["stick"], chunk["lyap"], chunk["j"])
+                        chunk["str_v"], record, chunk["stick"], chunk["lyap"], chunk["j"],
+                        chunk.get("rounding"), chunk.get("loop_amp"), chunk.get("kicks"))
     status = np.asarray(chunk["status"], dtype=np.int64)
     cl["regime_code"] = np.where(status == 0, cl["regime"], len(REGIME_ORDER) - 1).astype(np.int8)
     cl["status"] = status
@@ -273,6 +288,7 @@ def _summarise(chunk: dict, record: int) -> pd.DataFrame:
     cols = dict(cl)
     cols["value"] = np.asarray(chunk["values"], dtype=np.float64)
     cols["regime"] = _REGIME_OBJ[cl["regime_code"]]
+    cols["sticking"] = _STICKING_OBJ[cl["sticking"]]
     return pd.DataFrame({k: cols[k] for k in SUMMARY_COLUMNS})
 
 
@@ -312,7 +328,7 @@ def sweep(base: RattleParams, name: str, values: Sequence[float], transient: int
           record: int = 200, mode: str = "fresh", x0: float | None = None, v0: float = 0.0,
           progress: Callable[[int, int], Any] | None = None,
           cancel: Callable[[], bool] | None = None, chunk_size: int | None = None,
-          executor: Any = None) -> SweepResult:
+          executor: Any = None, noise: bool = True) -> SweepResult:
     """Sweep parameter ``name`` over ``values``; record every impact after a transient.
 
     Parameters
@@ -338,6 +354,11 @@ def sweep(base: RattleParams, name: str, values: Sequence[float], transient: int
         Values per chunk (default: about 1/20 of the sweep, at least 16).
     executor : dask.distributed.Client, optional
         Run the chunks on this Dask cluster instead of locally.
+    noise : bool
+        The attractor under vanishing noise (default) or the strict model; see
+        :func:`~rattle_core.trajectory.simulate`.  Each value's seed derives from its own
+        parameters and start state, so a value gives the same numbers in any chunk, on any
+        number of threads, and as a :func:`simulate` call from the same start.
     """
     if not isinstance(base, RattleParams):
         raise ValueError(f"base must be a RattleParams, got {type(base).__name__}")
@@ -350,8 +371,10 @@ def sweep(base: RattleParams, name: str, values: Sequence[float], transient: int
     if chunk_size is None:
         chunk_size = max(16, math.ceil(nv / 20))
     chunk_size = _check_int("chunk_size", chunk_size, 1, MAX_VALUES)
+    noise = check_bool("noise", noise)
     settings = {"transient": transient, "record": record, "mode": mode, "x0": x0, "v0": v0,
-                "solver_version": SOLVER_VERSION, "schema_version": SCHEMA_VERSION}
+                "noise": noise, "solver_version": SOLVER_VERSION,
+                "schema_version": SCHEMA_VERSION}
     chunks: list[dict] = []
     cancelled = False
     if mode == "continuation":
@@ -360,14 +383,14 @@ def sweep(base: RattleParams, name: str, values: Sequence[float], transient: int
             if cancel is not None and cancel():
                 cancelled = True
                 break
-            c = _run_chunk(base, name, vals[i:i + 1], transient, record, x, v)
+            c = _run_chunk(base, name, vals[i:i + 1], transient, record, x, v, noise=noise)
             chunks.append(c)
             x, v = float(c["final_x"][0]), float(c["final_v"][0])
             if progress is not None and ((i + 1) % chunk_size == 0 or i + 1 == nv):
                 progress(i + 1, nv)
     elif executor is not None:
         futures = [executor.submit(_run_chunk, base, name, vals[s:s + chunk_size], transient,
-                                   record, x0, v0, pure=False)
+                                   record, x0, v0, noise=noise, pure=False)
                    for s in range(0, nv, chunk_size)]
         from dask.distributed import as_completed
         done = 0
@@ -387,7 +410,8 @@ def sweep(base: RattleParams, name: str, values: Sequence[float], transient: int
             if cancel is not None and cancel():
                 cancelled = True
                 break
-            chunks.append(_run_chunk(base, name, vals[s:s + chunk_size], transient, record, x0, v0))
+            chunks.append(_run_chunk(base, name, vals[s:s + chunk_size], transient, record, x0, v0,
+                                     noise=noise))
             if progress is not None:
                 progress(min(s + chunk_size, nv), nv)
     import pandas as pd
