@@ -210,12 +210,12 @@ class SoundPanel(FeaturePanel):
         """``value`` cleaned for setting ``name``, or ``ValueError`` naming it and its range."""
         if name == "periods":
             lo, hi = PERIODS_RANGE
-            v = check_range("periods to play", value, lo, hi)
+            v = check_range("periods to play", value, lo, hi, text_ok=True)
             if v != int(v):
                 raise ValueError(f"periods to play = {value!r} must be a whole number in [{lo}, {hi}]")
             return int(v)
         if name == "excitation":
-            return check_range("excitation f (Hz)", value, *EXCITATION_HZ_RANGE, lo_open=True)
+            return check_range("excitation f (Hz)", value, *EXCITATION_HZ_RANGE, lo_open=True, text_ok=True)
         if name == "modes":
             return parse_modes(value)
         if name == "polarity":

@@ -119,7 +119,7 @@ def validate_field(name: str, value: Any) -> Any:
         if value is None or (isinstance(value, str) and value.strip() == ""):
             return ""
         f = FIELDS["x0"]
-        return repr(check_range(f.symbol, _number(f, value), f.lo, f.hi))
+        return repr(check_range(f.symbol, _number(f, value), f.lo, f.hi, text_ok=True))
     if name == "section":
         if value not in SECTIONS:
             raise ValueError(f"section = {value!r}; allowed: {', '.join(SECTIONS)}")
@@ -139,7 +139,7 @@ def validate_field(name: str, value: Any) -> Any:
     if name not in FIELDS:
         raise ValueError(f"unknown setting {name!r}")
     f = FIELDS[name]
-    v = check_range(f.symbol, _number(f, value), f.lo, f.hi, lo_open=f.lo_open)
+    v = check_range(f.symbol, _number(f, value), f.lo, f.hi, lo_open=f.lo_open, text_ok=True)
     if f.integer:
         if v != int(v):
             raise ValueError(f"{f.symbol} = {value!r} must be a whole number in {f.range_text()}")
@@ -180,8 +180,8 @@ def parse_harmonics(text: Any) -> dict[int, tuple[float, float]]:
             raise ValueError(f"harmonic order {parts[0]!r} must be a whole number in [3, {MAX_HARMONICS}]") from None
         if k != int(k) or not 3 <= k <= MAX_HARMONICS:
             raise ValueError(f"harmonic order {parts[0]!r} must be a whole number in [3, {MAX_HARMONICS}]")
-        h = check_range(f"H{int(k)}/H₁", parts[1], *AMPLITUDE_RANGE)
-        phi = check_range(f"φ{int(k)}", parts[2], *PHASE_RANGE_DEG)
+        h = check_range(f"H{int(k)}/H₁", parts[1], *AMPLITUDE_RANGE, text_ok=True)
+        phi = check_range(f"φ{int(k)}", parts[2], *PHASE_RANGE_DEG, text_ok=True)
         out[int(k)] = (h, phi)
     return dict(sorted(out.items()))
 

@@ -341,7 +341,7 @@ class UnitsPanel(FeaturePanel):
             amps = list(p.amplitudes)
             if name == "amp1":
                 rng = units.THETA_RANGE if p.excitation == "displacement" else units.ALPHA_RANGE
-                check_range("amplitudes[0]", value, *rng, lo_open=True)
+                check_range("amplitudes[0]", value, *rng, lo_open=True, text_ok=True)
                 # orders ≥ 3 have no physical input: they keep their ratio to order 1
                 amps[2:] = [a * value / amps[0] for a in amps[2:]]
                 amps[0] = value
@@ -483,7 +483,7 @@ class UnitsPanel(FeaturePanel):
                 got[key] = default
                 continue
             try:
-                got[key] = check_range(key, query[key], lo, hi, lo_open=lo_open)
+                got[key] = check_range(key, query[key], lo, hi, lo_open=lo_open, text_ok=True)
             except ValueError as exc:
                 got[key] = default
                 reject(key, f"{f'{exc} {unit}'.rstrip()}. Kept {default:g}")

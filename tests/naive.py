@@ -371,8 +371,9 @@ def _reference_period(sx, sv, scale, max_period, tol):
 
 
 def classify_reference(impulse, flank, strobe_x, strobe_v, periods, stick_time, lyapunov, j,
-                       *, max_period, tol, chaos) -> dict:
-    """Regime, period and rattle metrics of one window, straight from the definitions."""
+                       *, max_period, tol, chaos, rounding=False, loop_amplification=-np.inf,
+                       kicks=0) -> dict:
+    """Regime, period, kind of sticking and rattle metrics of one window, from the definitions."""
     periods = max(float(periods), 1e-300)
     act, rev = flank == 1, flank == -1
     n_act, n_rev = int(act.sum()), int(rev.sum())
@@ -408,4 +409,7 @@ def classify_reference(impulse, flank, strobe_x, strobe_v, periods, stick_time, 
             "lyapunov": float(lyapunov), "chaotic": bool(chaotic),
             "intensity": float(np.sum(impulse * impulse) / periods),
             "mean_impulse_active": ma, "rms_impulse_active": ra,
-            "mean_impulse_reverse": mr, "rms_impulse_reverse": rr}
+            "mean_impulse_reverse": mr, "rms_impulse_reverse": rr,
+            "sticking": ("" if stick_fraction == 0 else
+                         "chaos-through-sticking" if rounding else "stick-locked"),
+            "loop_amplification": float(loop_amplification), "noisy": kicks > 0}

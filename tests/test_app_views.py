@@ -143,7 +143,7 @@ def test_impacts_csv_round_trips_exactly(tr_e):
 # ----- state ------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("name,value,fragment", [
-    ("lam", -5, "Λ = -5.0 is outside the allowed range (0, 10000]"),
+    ("lam", -5, "Λ = -5.0 is outside the allowed range (1e-06, 10000]"),
     ("lam", "abc", "Λ must be a number"),
     ("r", 1.5, "r = 1.5 is outside the allowed range [0, 1]"),
     ("j", 0, "outside the allowed range (0, 10000]"),

@@ -312,7 +312,7 @@ def test_help_lists_every_subcommand_and_option(capsys):
 
 @pytest.mark.parametrize("argv, message", [
     (["simulate", "--lam", "abc", "--impacts", "x.csv"], "argument --lam: invalid float value: 'abc'"),
-    (["simulate", "--lam", "-1", "--impacts", "x.csv"], "lam = -1.0 is outside the allowed range (0, 10000]"),
+    (["simulate", "--lam", "-1", "--impacts", "x.csv"], "lam = -1.0 is outside the allowed range (1e-06, 10000]"),
     (["simulate", "--r", "2", "--impacts", "x.csv"], "r = 2.0 is outside the allowed range [0, 1]"),
     (["simulate", "--lam", "2", "--rpm", "1000", "--impacts", "x.csv"], "cannot be combined with physical"),
     (["simulate", "--rpm", "1000", "--impacts", "x.csv"], "physical units need --inertia"),

@@ -100,7 +100,7 @@ def test_second_run_comes_from_the_cache(panel):
 
 
 @pytest.mark.parametrize("setup, where, message", [
-    ({"x_start": -1.0}, "x", "x axis lam: lam = -1.0 is outside the allowed range (0, 10000]"),
+    ({"x_start": -1.0}, "x", "x axis lam: lam = -1.0 is outside the allowed range (1e-06, 10000]"),
     ({"y_axis": "r", "y_start": 0.5, "y_stop": 1.5}, "y",
      "y axis r: r = 1.5 is outside the allowed range [0, 1]"),
     ({"x_num": 1}, "x", "x points = 1 is outside the allowed range [2, 400]"),

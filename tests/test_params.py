@@ -26,11 +26,11 @@ def assert_message(err: pytest.ExceptionInfo, name: str, value: str, *range_toke
 
 # (keyword arguments, parameter name in the message, value as shown, range tokens)
 BAD_PARAMS = [
-    (dict(lam=0.0), "lam", "0", ("(0", "10000]")),
-    (dict(lam=-1.0), "lam", "-1", ("(0", "10000]")),
-    (dict(lam=NAN), "lam", "nan", ("(0", "10000]")),
-    (dict(lam=INF), "lam", "inf", ("(0", "10000]")),
-    (dict(lam=-INF), "lam", "-inf", ("(0", "10000]")),
+    (dict(lam=0.0), "lam", "0", ("(1e-06", "10000]")),
+    (dict(lam=-1.0), "lam", "-1", ("(1e-06", "10000]")),
+    (dict(lam=NAN), "lam", "nan", ("(1e-06", "10000]")),
+    (dict(lam=INF), "lam", "inf", ("(1e-06", "10000]")),
+    (dict(lam=-INF), "lam", "-inf", ("(1e-06", "10000]")),
     (dict(lam=3.3, r=-0.01), "r", "-0.01", ("[0", "1]")),
     (dict(lam=3.3, r=1.01), "r", "1.01", ("[0", "1]")),
     (dict(lam=3.3, r=NAN), "r", "nan", ("[0", "1]")),
@@ -44,6 +44,12 @@ BAD_PARAMS = [
     (dict(lam=3.3, amplitudes=(1.0, -0.2), phases_deg=(0.0, 0.0)), "amplitudes[1]", "-0.2", ("[0", "100]")),
     (dict(lam=3.3, phases_deg=(NAN,)), "phases_deg[0]", "nan", ("range",)),
     (dict(lam=3.3, amplitudes=(1.0, 0.25), phases_deg=(0.0, INF)), "phases_deg[1]", "inf", ("range",)),
+    # found by fuzzing: no OverflowError, no silent conversion of text or bools, no stall
+    (dict(lam=10**400), "lam", "1000000", ("(1e-06", "10000]")),
+    (dict(lam="3.3"), "lam", "'3.3'", ("(1e-06", "10000]")),
+    (dict(lam=True), "lam", "True", ("(1e-06", "10000]")),
+    (dict(lam=5e-324), "lam", "5e-324", ("(1e-06", "10000]")),
+    (dict(lam=3.3, r="0.5"), "r", "'0.5'", ("[0", "1]")),
 ]
 
 
@@ -206,3 +212,13 @@ def test_key_is_stable_across_processes():
                          env={**os.environ, "PYTHONHASHSEED": "12345"})
     assert out.stdout.strip() == p.key(periods=100)
     assert len(p.key()) == 64 and int(p.key(), 16) >= 0
+
+
+@pytest.mark.parametrize("kwargs", [dict(periods=True), dict(periods="10"), dict(transient=False),
+                                    dict(noise=1), dict(lyapunov="yes"), dict(periods=1e400)])
+def test_simulate_refuses_bools_and_text_for_numbers_and_numbers_for_switches(kwargs):
+    """simulate names the argument when a bool or text stands for a number, or a number for a
+    switch, instead of converting it silently."""
+    name = next(iter(kwargs))
+    with pytest.raises(ValueError, match=name):
+        simulate(RattleParams(lam=3.3), **{"periods": 5, **kwargs})

@@ -260,7 +260,8 @@ def test_summary_equals_classify_arrays_value_for_value():
             (TWO_H, [0.8, 1.09, 1.59, 2.41, 2.47])]
     seen = set()
     for base, vals in runs:
-        chunk = run_chunk(base, "lam", np.array(vals), 150, 40, None, 0.0)
+        # strict mode keeps a chaotic window that sticks ("D", True) among the responses
+        chunk = run_chunk(base, "lam", np.array(vals), 150, 40, None, 0.0, noise=False)
         summary = _summarise(chunk, 40)
         off = 0
         for k, val in enumerate(vals):
@@ -268,11 +269,13 @@ def test_summary_equals_classify_arrays_value_for_value():
             imp, fl = chunk["impulse"][off:off + n], chunk["flank"][off:off + n]
             off += n
             c = classify_arrays(imp, fl, chunk["str_x"][k], chunk["str_v"][k], 40,
-                                chunk["stick"][k], chunk["lyap"][k], chunk["j"][k])
+                                chunk["stick"][k], chunk["lyap"][k], chunk["j"][k],
+                                chunk["rounding"][k], chunk["loop_amp"][k], chunk["kicks"][k])
             s = summary.iloc[k]
             seen.add((c.regime, c.stick_fraction > 0))
             assert s["value"] == val and s["status"] == 0
             assert s["regime"] == c.regime and s["period"] == c.period and s["chaotic"] == c.chaotic
+            assert s["sticking"] == c.sticking and s["loop_amplification"] == c.loop_amplification
             assert s["n_active"] == np.sum(fl == 1) and s["n_reverse"] == np.sum(fl == -1)
             for field in ("active_per_period", "reverse_per_period", "stick_fraction",
                           "intensity", "lyapunov"):

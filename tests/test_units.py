@@ -235,7 +235,7 @@ def test_bad_physical_input_names_parameter_value_and_range(changes, pattern):
 def test_derived_out_of_range_names_the_dimensionless_parameter():
     """A valid physical set whose Λ exceeds the model's range says so, naming lam."""
     phys = example().replace(drag_torque=1e-7)  # Λ ≈ 9.9e4 > 1e4
-    with pytest.raises(ValueError, match=r"lam = 98696\.\d+ is outside the allowed range \(0, 10000\]; "
+    with pytest.raises(ValueError, match=r"lam = 98696\.\d+ is outside the allowed range \(1e-06, 10000\]; "
                        r"it derives from the physical inputs \(H1 = 2e-05 m"):
         phys.to_dimensionless()
 

@@ -12,6 +12,13 @@ Definitions (all over the recorded window of ``P`` forcing periods, after the tr
   every perturbation); ``−inf`` if no such excursion exists.
 * **chaotic**: ``period == 0`` (non-repeating section) and ``λ > LYAP_CHAOS``.  A chaotic
   response may stick now and then (the paper's "chaotic responses beside stick-and-impact").
+* **sticking**: ``""`` when the window has no stick phase; ``"stick-locked"`` when every
+  capture into a stick phase ended an excursion that amplified perturbations by less than
+  1e10 (the motion through sticking is exact and resolvable; ``loop_amplification`` gives the
+  largest, as log10); ``"chaos-through-sticking"`` when some capture was decided by rounding
+  (docs/model.md, "Sticking erases the past").  With ``noise=True`` (the default) the window's
+  statistics are then those of the model under vanishing noise (``noisy``); with
+  ``noise=False`` they are those of a loop chosen by rounding, and the label says so.
 * **rattle intensity**: ``Σ Ĩ² / P``, the impulse energy per forcing period; mean and RMS
   ``|Ĩ|`` per flank.
 * **regime** (paper §4), first match wins: ``A`` permanent contact (no impact, stuck the
@@ -38,7 +45,7 @@ import numpy as np
 from numba import njit
 
 from ..model.excitation import TWO_PI
-from .vocabulary import CLASS_LETTERS, REGIME_MEANING
+from .vocabulary import CLASS_LETTERS, REGIME_MEANING, STICKING_KINDS
 
 MAX_PERIOD = 32
 PERIOD_TOL = 1e-6
@@ -64,6 +71,9 @@ class Classification:
     rms_impulse_active: float
     mean_impulse_reverse: float
     rms_impulse_reverse: float
+    sticking: str = ""
+    loop_amplification: float = -math.inf
+    noisy: bool = False
 
     @property
     def impacts_per_period(self) -> float:
@@ -78,7 +88,12 @@ class Classification:
         parts.append(f"{self.active_per_period:.3g} active + {self.reverse_per_period:.3g} reverse "
                      "impacts/period")
         if self.stick_fraction > 0:
-            parts.append(f"sticking {100 * self.stick_fraction:.2g}% of the time")
+            parts.append(f"sticking {100 * self.stick_fraction:.3g}% of the time")
+        if self.sticking == "stick-locked" and math.isfinite(self.loop_amplification):
+            parts.append(f"stick-locked, loop amplification 10^{self.loop_amplification:.1f}")
+        elif self.sticking == "chaos-through-sticking":
+            parts.append("chaos through sticking, vanishing-noise statistics" if self.noisy else
+                         "loop chosen by rounding (noise off): not resolvable in double precision")
         if not math.isnan(self.lyapunov):
             parts.append(f"λ = {self.lyapunov:.3g}")
         return ", ".join(parts)
@@ -100,17 +115,20 @@ def detect_period(sx: np.ndarray, sv: np.ndarray, scale: float = 1.0,
 
 def classify_arrays(impulse: np.ndarray, flank: np.ndarray, strobe_x: np.ndarray,
                     strobe_v: np.ndarray, periods: float, stick_time: float,
-                    lyapunov: float, j: float) -> Classification:
+                    lyapunov: float, j: float, rounding: bool = False,
+                    loop_amplification: float = -math.inf, kicks: int = 0) -> Classification:
     """Classify a window from its impacts, section samples, stick time and exponent
     (:func:`classify_batch` with one window: the rules live in one place)."""
     impulse = np.asarray(impulse, dtype=np.float64).ravel()
     c = classify_batch(np.array([len(impulse)]), impulse, np.asarray(flank).ravel(),
                        np.asarray(strobe_x, dtype=np.float64).reshape(1, -1),
                        np.asarray(strobe_v, dtype=np.float64).reshape(1, -1), periods,
-                       np.array([stick_time]), np.array([lyapunov]), np.array([j]))
+                       np.array([stick_time]), np.array([lyapunov]), np.array([j]),
+                       np.array([rounding]), np.array([loop_amplification]), np.array([kicks]))
     return Classification(
         regime=REGIME_LETTERS[c["regime"][0]], period=int(c["period"][0]),
-        chaotic=bool(c["chaotic"][0]),
+        chaotic=bool(c["chaotic"][0]), sticking=STICKING_KINDS[c["sticking"][0]],
+        loop_amplification=float(c["loop_amplification"][0]), noisy=bool(c["noisy"][0]),
         **{k: float(c[k][0]) for k in ("active_per_period", "reverse_per_period", "stick_fraction",
                                        "lyapunov", "intensity", "mean_impulse_active",
                                        "rms_impulse_active", "mean_impulse_reverse",
@@ -276,15 +294,20 @@ def _classify_kernel(counts, impulse, flank, str_x, str_v, periods, stick, lyap,
 
 def classify_batch(counts: np.ndarray, impulse: np.ndarray, flank: np.ndarray,
                    strobe_x: np.ndarray, strobe_v: np.ndarray, periods: float,
-                   stick_time: np.ndarray, lyapunov: np.ndarray, j: np.ndarray) -> dict:
+                   stick_time: np.ndarray, lyapunov: np.ndarray, j: np.ndarray,
+                   rounding: np.ndarray | None = None, loop_amplification: np.ndarray | None = None,
+                   kicks: np.ndarray | None = None) -> dict:
     """Classify many windows at once; the same numbers as :func:`classify_arrays` for each.
 
     ``impulse`` and ``flank`` hold the impacts of all windows one after the other
     (``counts[i]`` of them for window i); ``strobe_x``/``strobe_v`` have one row per window;
-    ``stick_time``, ``lyapunov`` and ``j`` one value per window; ``periods`` is common.
+    ``stick_time``, ``lyapunov``, ``j`` and the optional ``rounding`` (a capture decided by
+    rounding), ``loop_amplification`` (log10) and ``kicks`` (release kicks applied) one value
+    per window; ``periods`` is common.
 
     Returns a dict of arrays: ``regime`` (codes into :data:`REGIME_LETTERS`), ``period``,
-    ``n_active``, ``n_reverse`` and every field of :class:`Classification`.
+    ``n_active``, ``n_reverse``, ``sticking`` (codes into :data:`STICKING_KINDS`) and every
+    other field of :class:`Classification`.
     """
     counts = np.ascontiguousarray(counts, dtype=np.int64)
     nv = counts.shape[0]
@@ -311,6 +334,12 @@ def classify_batch(counts: np.ndarray, impulse: np.ndarray, flank: np.ndarray,
                      out["intensity"], out["mean_impulse_active"], out["rms_impulse_active"],
                      out["mean_impulse_reverse"], out["rms_impulse_reverse"])
     out["lyapunov"] = lyap.copy()
+    rnd = np.zeros(nv, np.bool_) if rounding is None else np.asarray(rounding, np.bool_).reshape(nv)
+    out["sticking"] = np.where(out["stick_fraction"] > 0, np.where(rnd, 2, 1), 0).astype(np.int8)
+    out["loop_amplification"] = (np.full(nv, -np.inf) if loop_amplification is None else
+                                 np.asarray(loop_amplification, np.float64).reshape(nv).copy())
+    out["noisy"] = (np.zeros(nv, np.bool_) if kicks is None else
+                    np.asarray(kicks).reshape(nv) > 0)
     return out
 
 
@@ -318,4 +347,5 @@ def classify(tr) -> Classification:
     """Classify a :class:`~rattle_core.trajectory.Trajectory` (simulate it with ``lyapunov=True``
     for the exponent; otherwise it is NaN and chaos cannot be flagged)."""
     return classify_arrays(tr.impact_impulse, tr.impact_flank, tr.strobe_x, tr.strobe_v,
-                           tr.periods, tr.stick_time, tr.lyapunov, tr.params.j)
+                           tr.periods, tr.stick_time, tr.lyapunov, tr.params.j,
+                           tr.rounding_decided, tr.loop_amplification, tr.noise_kicks)

@@ -53,6 +53,9 @@ CLASS_LETTERS: tuple[str, ...] = LETTERS[:-1]
 REGIME_CODES: dict[str, int] = {g.letter: g.code for g in REGIMES}
 REGIME_MEANING: dict[str, str] = {g.letter: g.meaning for g in REGIMES}
 REGIME_COLOURS: dict[str, str] = {g.letter: g.colour for g in REGIMES}
+#: Kinds of motion through sticking (``Classification.sticking``), in the order of their codes:
+#: none, a loop resolvable in double precision, a loop decided by rounding (``docs/model.md``).
+STICKING_KINDS: tuple[str, ...] = ("", "stick-locked", "chaos-through-sticking")
 #: Colour of an unknown or missing regime.
 UNKNOWN_COLOUR = "#555555"
 

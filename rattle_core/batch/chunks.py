@@ -35,7 +35,7 @@ _KERNEL_LOCK = threading.Lock()
 @njit(cache=True, nogil=True)
 def _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
                imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
-               final_x, final_v):
+               final_x, final_v, noise, rounding, loop_amp, kicks):
     imp_t = np.empty(cap)
     imp_w = np.empty(cap)
     seg_t = np.empty(0)
@@ -43,7 +43,7 @@ def _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
     seg_x = np.empty(0)
     seg_v = np.empty(0)
     out = solver._integrate(lam[i], r[i], j[i], h[i], phi[i], vs[i], 0, 0.0, x0[i], v0[i],
-                            n_tr + n_rec, n_tr, 0.0, max_imp, True,
+                            n_tr + n_rec, n_tr, 0.0, max_imp, True, noise,
                             imp_t, imp_tau[i], imp_I[i], imp_w, imp_flank[i],
                             seg_t, seg_k, seg_x, seg_v, str_x[i], str_v[i])
     status[i] = out[0]
@@ -53,16 +53,19 @@ def _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
     lt = out[10]
     lyap[i] = out[9] / lt if lt > 0 else np.nan
     stick[i] = out[11]
+    rounding[i] = out[13]
+    loop_amp[i] = out[14]
+    kicks[i] = out[15]
 
 
 @njit(parallel=True, cache=True, nogil=True)
 def _sweep_kernel(lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
                   imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
-                  final_x, final_v):
+                  final_x, final_v, noise, rounding, loop_amp, kicks):
     for i in prange(lam.shape[0]):
         _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
                    imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
-                   final_x, final_v)
+                   final_x, final_v, noise, rounding, loop_amp, kicks)
 
 
 # The same loop on one thread, for a chunk running as a Dask task: the cluster's workers
@@ -71,11 +74,11 @@ def _sweep_kernel(lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
 @njit(cache=True, nogil=True)
 def _sweep_kernel_serial(lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
                          imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
-                         final_x, final_v):
+                         final_x, final_v, noise, rounding, loop_amp, kicks):
     for i in range(lam.shape[0]):
         _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
                    imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
-                   final_x, final_v)
+                   final_x, final_v, noise, rounding, loop_amp, kicks)
 
 
 def _in_dask_worker() -> bool:
@@ -120,7 +123,8 @@ def param_arrays(base: RattleParams, columns: dict[str, np.ndarray]):
 
 def run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transient: int,
                record: int, x0: float | np.ndarray | None, v0: float | np.ndarray,
-               max_impacts_per_period: int = solver.MAX_IMPACTS_PER_PERIOD) -> dict:
+               max_impacts_per_period: int = solver.MAX_IMPACTS_PER_PERIOD,
+              noise: bool = True) -> dict:
     """Run one chunk of values in parallel; returns plain arrays (picklable, for Dask too).
 
     ``name`` is one swept name (``values`` its values) or a dict of name → per-value arrays
@@ -150,7 +154,9 @@ def run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transien
         todo = np.concatenate([todo[t::nt] for t in range(nt)])
     res = {"counts": np.zeros(nv, np.int64), "status": np.zeros(nv, np.int64),
            "lyap": np.full(nv, np.nan), "stick": np.zeros(nv), "final_x": np.zeros(nv),
-           "final_v": np.zeros(nv), "str_x": np.zeros((nv, record)), "str_v": np.zeros((nv, record))}
+           "final_v": np.zeros(nv), "str_x": np.zeros((nv, record)), "str_v": np.zeros((nv, record)),
+           "rounding": np.zeros(nv, np.bool_), "loop_amp": np.full(nv, -np.inf),
+           "kicks": np.zeros(nv, np.int64)}
     impacts: list = [None] * nv
     while len(todo):
         m = len(todo)
@@ -165,10 +171,14 @@ def run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transien
         stick = np.zeros(m)
         fx = np.zeros(m)
         fv = np.zeros(m)
+        rnd = np.zeros(m, np.bool_)
+        lamp = np.zeros(m)
+        kk = np.zeros(m, np.int64)
         args = (lam[todo], r[todo], j[todo], np.ascontiguousarray(h[todo]),
                 np.ascontiguousarray(phi[todo]), vs[todo], np.ascontiguousarray(xs[todo]),
                 vs0[todo], transient, record, max_impacts_per_period, cap,
-                imp_tau, imp_I, imp_fl, counts, status, str_x, str_v, lyap, stick, fx, fv)
+                imp_tau, imp_I, imp_fl, counts, status, str_x, str_v, lyap, stick, fx, fv,
+                bool(noise), rnd, lamp, kk)
         if on_worker:
             _sweep_kernel_serial(*args)
         else:
@@ -189,6 +199,9 @@ def run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transien
             res["final_v"][i] = fv[a]
             res["str_x"][i] = str_x[a]
             res["str_v"][i] = str_v[a]
+            res["rounding"][i] = rnd[a]
+            res["loop_amp"][i] = lamp[a] / np.log(10.0)
+            res["kicks"][i] = kk[a]
         todo = np.array(again, dtype=np.int64)
         cap *= 8
     res["impulse"] = np.concatenate([imp[0] for imp in impacts]) if nv else np.empty(0)
@@ -206,7 +219,8 @@ def summary_arrays(chunk: dict, record: int) -> dict:
     a run that did not finish (status ≠ 0) is ``"error"`` whatever its partial window looks like.
     """
     cl = classify_batch(chunk["counts"], chunk["impulse"], chunk["flank"], chunk["str_x"],
-                        chunk["str_v"], record, chunk["stick"], chunk["lyap"], chunk["j"])
+                        chunk["str_v"], record, chunk["stick"], chunk["lyap"], chunk["j"],
+                        chunk.get("rounding"), chunk.get("loop_amp"), chunk.get("kicks"))
     status = np.asarray(chunk["status"], dtype=np.int64)
     cl["regime_code"] = np.where(status == 0, cl["regime"], REGIME_CODES["error"]).astype(np.int8)
     cl["status"] = status

@@ -21,7 +21,7 @@ import numpy as np
 from .phases import paper_to_core_phases
 
 #: Allowed ranges, shared by validation messages, the CLI and the dashboard's widgets.
-LAM_RANGE = (0.0, 1.0e4)  # open at 0
+LAM_RANGE = (1.0e-6, 1.0e4)  # open below: 1/Λ, the flight's deceleration, must stay finite
 R_RANGE = (0.0, 1.0)
 J_RANGE = (0.0, 1.0e4)  # open at 0
 AMPLITUDE_RANGE = (0.0, 100.0)
@@ -30,29 +30,43 @@ V_STICK_RANGE = (0.0, 10.0)
 MAX_HARMONICS = 32
 
 
-def _finite(name: str, value: Any, allowed: str = "") -> float:
+def _finite(name: str, value: Any, allowed: str = "", text_ok: bool = False) -> float:
     where = f"; the allowed range is {allowed}" if allowed else ""
+    # a bool, or text where a number is due, is a mistake even though float() would take it
+    if isinstance(value, (bool, np.bool_)) or (not text_ok and isinstance(value, (str, bytes))):
+        raise ValueError(f"{name} must be a real number, got {value!r}{where}")
     try:
         v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a real number, got {value!r}{where}") from None
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{name} must be a real number, got {value!r:.40}{where}") from None
     if not math.isfinite(v):
         raise ValueError(f"{name} must be finite, got {v!r}{where}")
     return v
 
 
 def check_range(name: str, value: Any, lo: float, hi: float, *, lo_open: bool = False,
-                hi_open: bool = False) -> float:
-    """Return ``value`` as a float, or raise ``ValueError`` naming ``name``, the value and its range."""
+                hi_open: bool = False, text_ok: bool = False) -> float:
+    """Return ``value`` as a float, or raise ``ValueError`` naming ``name``, the value and its range.
+
+    ``text_ok`` accepts a numeric string (a form field or a URL value); otherwise text and
+    bools are refused, since ``float('3.3')`` and ``float(True)`` hide a caller's mistake.
+    """
     left = "(" if lo_open else "["
     right = ")" if hi_open else "]"
     allowed = f"{left}{lo:g}, {hi:g}{right}"
-    v = _finite(name, value, allowed)
+    v = _finite(name, value, allowed, text_ok)
     below = v <= lo if lo_open else v < lo
     above = v >= hi if hi_open else v > hi
     if below or above:
         raise ValueError(f"{name} = {v!r} is outside the allowed range {allowed}")
     return v
+
+
+def check_bool(name: str, value: Any) -> bool:
+    """Return ``value`` if it is a bool (numpy's included), or raise ``ValueError`` naming it."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    raise ValueError(f"{name} = {value!r} must be True or False")
 
 
 @dataclasses.dataclass(frozen=True)

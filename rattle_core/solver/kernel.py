@@ -48,6 +48,57 @@ STALL = 4
 _FLIGHT_MAX_IT = 100_000
 #: Shortest excursion between stick phases that contributes to the Lyapunov exponent.
 MIN_EXCURSION_PERIODS = 20
+#: A capture whose excursion amplified perturbations beyond this (natural log of 1e10) was
+#: decided by rounding: double precision no longer resolves the loop (docs/model.md).
+LOG_ROUNDING = 23.025850929940457
+#: Size of a release kick, relative to the excitation's velocity scale ``Σ k h_k``.
+KICK = 1e-12
+
+
+@njit(cache=True, nogil=True)
+def _splitmix(z):
+    """SplitMix64: a counter-based generator, so each kick depends only on (seed, index)."""
+    z = z + np.uint64(0x9E3779B97F4A7C15)
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return z ^ (z >> np.uint64(31))
+
+
+@njit(cache=True, nogil=True)
+def _seed(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0):
+    """Seed of the release kicks, from the inputs that decide the motion.
+
+    Harmonics with ``h_k = 0`` are skipped, so padding with empty harmonics (as sweeps do) keeps
+    the seed; the run length is left out, so a longer run extends a shorter one.
+    """
+    vals = np.empty(8 + 3 * h.shape[0])
+    vals[0] = lam
+    vals[1] = r
+    vals[2] = j
+    vals[3] = v_stick
+    vals[4] = float(n0)
+    vals[5] = tau0
+    vals[6] = x0
+    vals[7] = v0
+    m = 8
+    for i in range(h.shape[0]):
+        if h[i] != 0.0:
+            vals[m] = i + 1.0
+            vals[m + 1] = h[i]
+            vals[m + 2] = phi[i]
+            m += 3
+    bits = vals[:m].view(np.uint64)
+    z = np.uint64(0x6A09E667F3BCC908)
+    for i in range(m):
+        z = _splitmix(z ^ bits[i])
+    return z
+
+
+@njit(cache=True, nogil=True)
+def _uniform(seed, k):
+    """The k-th number of the stream ``seed``, uniform in (0, 1]."""
+    z = _splitmix(seed + np.uint64(k) * np.uint64(0xD1B54A32D192ED03))
+    return ((z >> np.uint64(11)) + np.uint64(1)) * (1.0 / 9007199254740992.0)
 
 
 @njit(cache=True, nogil=True)
@@ -97,6 +148,10 @@ def _flight(lam, j, h, cphi, sphi, m2, m3, m4, tau0, x0, v0, smax, leave):
             hit = -1
             delta = gr / ga1 if ga1 > 1e-7 else 0.0
         if hit != 0:
+            if s + delta < 0.0:
+                # a start just inside the wall while closing: the contact is at the start,
+                # never before it (time must not run backwards)
+                delta = -s
             return (s + delta, hit, y0 + y1 * delta, y1 + y2 * delta, y2 + y3 * delta,
                     y3 + y4 * delta, y4)
         gap_a = ga if ga > 0.0 else 0.0
@@ -170,7 +225,7 @@ def _later_or_equal(n, tau, n_ref, tau_ref):
 
 @njit(cache=True, nogil=True)
 def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from, theta,
-               max_imp_per_period, tangent,
+               max_imp_per_period, tangent, noise,
                imp_t, imp_tau, imp_I, imp_w, imp_flank,
                seg_t, seg_kind, seg_x, seg_v,
                str_x, str_v):
@@ -179,7 +234,10 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
     Impacts, segments and stroboscopic samples are recorded from ``t0 + 2π rec_from`` on, into
     the given arrays (their lengths are the capacities; a zero-length segment array records
     none).  Returns ``(status, n_imp, n_seg, n_str, n, tau, x, v, mode, lyap_sum, lyap_time,
-    stick_time, n_stick)``, where the last four refer to the recording window.
+    stick_time, n_stick, rounding, loop_amp, kicks)``; lyap_sum to n_stick, ``rounding`` (a
+    capture decided by rounding) and ``loop_amp`` (the largest release-to-capture
+    amplification, natural log) refer to the recording window; ``kicks`` counts the release
+    kicks of the whole run (``noise`` on).
     """
     cphi = np.cos(phi)
     sphi = np.sin(phi)
@@ -228,6 +286,23 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
     stuck_in_window = False
     stick_time = 0.0
     n_stick = 0
+    # Release-to-capture amplification (docs/model.md, "Sticking erases the past"): a tangent
+    # vector restarted at each release (and at t0), read at each impact in impact-map
+    # coordinates (shifts of the impact time and of the impact velocity), which stay bounded
+    # through chatter, where the fixed-time tangent grows without meaning.
+    ex_dx = 0.0
+    ex_dv = 1.0
+    ex_log = 0.0
+    ex_a2 = 0.0
+    ex_a2_log = 0.0
+    loop_max = -np.inf
+    rounding = False
+    rounding_rec = False
+    kick_due = False
+    kicks = 0
+    seed = np.uint64(0)
+    if noise:
+        seed = _seed(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0)
 
     # a start on a wall, at rest on it or moving into it, is a contact at t0
     y0, y1, y2, y3, y4 = _y_derivs(tau, h, cphi, sphi)
@@ -264,7 +339,22 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
             x = y0 if sigma == 1 else y0 + j
             zero_rel = False
             if abs(w) >= v_eff:
+                # δt = −δx/w and δw = δv − (1/Λ + ÿ) δt; the logarithm waits for a capture
+                et = ex_dx / w
+                q = (inv_lam + y2) * et
+                ew = ex_dv + q
+                ex_a2 = et * et + ew * ew
+                ex_a2_log = ex_log
                 vplus = y1 - r * w
+                if kick_due and r > 0.0:
+                    # the vanishing-noise limit: a seeded relative kick of the rebound, once per
+                    # excursion after a capture decided by rounding
+                    u = _uniform(seed, kicks)
+                    vplus = y1 - r * w * (1.0 + KICK * (2.0 * u - 1.0))
+                    kicks += 1
+                    kick_due = False
+                ex_dv = -r * ex_dv - (1.0 + r) * q
+                ex_dx = -r * ex_dx
                 if recording:
                     if n_imp >= cap_imp:
                         status = OVERFLOW_IMPACTS
@@ -295,8 +385,18 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
                         ww = V_FLOOR if ww >= 0.0 else -V_FLOOR
                     dv = -(inv_lam + y2) / ww * dx
                     dx = 0.0
+                ww = w
+                if abs(ww) < V_FLOOR:
+                    ww = V_FLOOR if ww >= 0.0 else -V_FLOOR
+                ex_dv = -(inv_lam + y2) / ww * ex_dx
+                ex_dx = 0.0
                 v = y1
                 zero_rel = True
+            nrm = abs(ex_dx) + abs(ex_dv)
+            if nrm > 1e100 or (nrm < 1e-100 and nrm > 0.0):
+                ex_log += np.log(nrm)
+                ex_dx /= nrm
+                ex_dv /= nrm
             mode = FLIGHT
             leave = 0
             if zero_rel:
@@ -307,6 +407,12 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
                 if f > tol or (f > -tol and (f1 > 0.0 or (f2 > 0.0 and
                                                         f - 0.5 * f1 * f1 / f2 > -tol))):
                     mode = sigma
+                    ex_amp = ex_a2_log + 0.5 * np.log(ex_a2) if ex_a2 > 0.0 else -np.inf
+                    if ex_amp > LOG_ROUNDING:
+                        rounding = True
+                        rounding_rec = rounding_rec or recording
+                    if recording and ex_amp > loop_max:
+                        loop_max = ex_amp
                     if tangent:
                         dx = 0.0
                         dv = 0.0
@@ -397,6 +503,7 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
         if mode == FLIGHT:
             x = x + v * s - 0.5 * s * s * inv_lam
             v = v - s * inv_lam
+            ex_dx += ex_dv * s
             if tangent:
                 dx += dv * s
         n = n_after
@@ -411,6 +518,11 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
             if rem > s:
                 leave = mode
                 mode = FLIGHT
+                ex_dx = 0.0
+                ex_dv = 1.0
+                ex_log = 0.0
+                ex_a2 = 0.0
+                kick_due = noise and rounding
                 if tangent:
                     # the release time depends on the phase only, so the perturbation stays
                     # collapsed; a fresh unit vector restarts the measurement
@@ -436,4 +548,4 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
         lyap_sum = -np.inf
         lyap_time = 1.0
     return (status, n_imp, n_seg, n_str, n, tau, x, v, mode, lyap_sum, lyap_time,
-            stick_time, n_stick)
+            stick_time, n_stick, rounding_rec, loop_max, kicks)

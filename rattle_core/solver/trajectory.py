@@ -13,9 +13,9 @@ import numpy as np
 
 from . import kernel as solver
 from ..model.excitation import TWO_PI, excitation
-from ..model.params import RattleParams, check_range
+from ..model.params import RattleParams, check_bool, check_range
 
-SOLVER_VERSION = "1.1.0"
+SOLVER_VERSION = "1.2.0"
 #: Largest number of forcing periods (transient + recorded) one call may run.
 MAX_PERIODS = 2_000_000
 
@@ -42,6 +42,16 @@ class Trajectory:
         Stroboscopic samples at ``t = 2π n + strobe_phase``.
     seg_t, seg_kind, seg_x, seg_v : ndarray
         Segments: start time, kind (0 flight, +1 stuck active, −1 stuck reverse), state at start.
+    rounding_decided : bool
+        Some capture in the recorded window ended an excursion that amplified perturbations
+        beyond ``1e10`` (``solver.LOG_ROUNDING``): double precision does not decide which loop
+        the exact model follows (docs/model.md, "Sticking erases the past").
+    loop_amplification : float
+        log10 of the largest release-to-capture amplification in the recorded window (``-inf``
+        when no capture follows an impact).
+    noise_kicks : int
+        Release kicks applied in the whole run (only with ``noise=True``, after a capture
+        decided by rounding); 0 means the run is the exact, unperturbed model.
     """
 
     params: RattleParams
@@ -66,6 +76,9 @@ class Trajectory:
     stick_time: float
     n_stick_phases: int
     settings: dict
+    rounding_decided: bool = False
+    loop_amplification: float = -math.inf
+    noise_kicks: int = 0
 
     @property
     def periods(self) -> float:
@@ -144,7 +157,8 @@ def _check_int(name: str, value, lo: int, hi: int) -> int:
 def simulate(params: RattleParams, periods: int = 500, x0: float | None = None, v0: float = 0.0,
              strobe_phase: float = 0.0, t0: float = 0.0, transient: int = 0,
              lyapunov: bool = False, record_segments: bool = True,
-             max_impacts_per_period: int = solver.MAX_IMPACTS_PER_PERIOD) -> Trajectory:
+             max_impacts_per_period: int = solver.MAX_IMPACTS_PER_PERIOD,
+             noise: bool = True) -> Trajectory:
     """Simulate the idle gear exactly for ``transient + periods`` forcing periods.
 
     Parameters
@@ -167,6 +181,14 @@ def simulate(params: RattleParams, periods: int = 500, x0: float | None = None, 
         Keep the segments needed by :meth:`Trajectory.sample`.
     max_impacts_per_period : int
         Runaway limit: more impacts than this within one period raises :class:`SolverError`.
+    noise : bool
+        ``True`` (default): the attractor under vanishing noise.  Once a capture into a stick
+        phase was decided by rounding, the first rebound after each later release gets a
+        seeded relative kick of at most 1e-12, so the run samples the chaotic set instead of a
+        loop chosen by rounding; the seed derives from the inputs, so results are reproducible.
+        Runs without such a capture (robust stick orbits included) are untouched, bit for
+        bit.  ``False``: the unperturbed model, strictly deterministic; then
+        :attr:`Trajectory.rounding_decided` says when its loop is not resolvable.
     """
     if not isinstance(params, RattleParams):
         raise ValueError(f"params must be a RattleParams, got {type(params).__name__}")
@@ -176,6 +198,9 @@ def simulate(params: RattleParams, periods: int = 500, x0: float | None = None, 
         raise ValueError(f"periods + transient = {periods + transient} is outside the allowed range "
                          f"[1, {MAX_PERIODS}]")
     max_impacts_per_period = _check_int("max_impacts_per_period", max_impacts_per_period, 1, 10**7)
+    noise = check_bool("noise", noise)
+    lyapunov = check_bool("lyapunov", lyapunov)
+    record_segments = check_bool("record_segments", record_segments)
     t0 = check_range("t0", t0, -1e9, 1e9)
     theta = check_range("strobe_phase", strobe_phase, -1e6, 1e6) % TWO_PI
     n0 = math.floor(t0 / TWO_PI)
@@ -207,7 +232,7 @@ def simulate(params: RattleParams, periods: int = 500, x0: float | None = None, 
         str_v = np.empty(periods)
         out = solver._integrate(params.lam, params.r, params.j, h, phi, params.v_stick,
                                 n0, tau0, x0, v0, periods + transient, transient, theta,
-                                max_impacts_per_period, lyapunov,
+                                max_impacts_per_period, lyapunov, noise,
                                 imp_t, imp_tau, imp_I, imp_w, imp_flank,
                                 seg_t, seg_kind, seg_x, seg_v, str_x, str_v)
         status = out[0]
@@ -225,7 +250,8 @@ def simulate(params: RattleParams, periods: int = 500, x0: float | None = None, 
     if status == solver.STALL:
         raise SolverError(f"the event search exceeded its iteration budget near "
                           f"t = {out[4] * TWO_PI + out[5]:.6g}; parameters {params}")
-    _, n_imp, n_seg, n_str, n_f, tau_f, x_f, v_f, mode_f, lsum, ltime, stime, nstick = out
+    (_, n_imp, n_seg, n_str, n_f, tau_f, x_f, v_f, mode_f, lsum, ltime, stime, nstick,
+     rounding, loop_amp, kicks) = out
     t_start = (n0 + transient) * TWO_PI + tau0
     strobe_t = _strobe_times(n0 + transient, tau0, theta, n_str)
     return Trajectory(
@@ -241,7 +267,9 @@ def simulate(params: RattleParams, periods: int = 500, x0: float | None = None, 
         lyapunov_sum=float(lsum), lyapunov_time=float(ltime), stick_time=float(stime),
         n_stick_phases=int(nstick),
         settings={"periods": periods, "transient": transient, "x0": x0, "v0": v0, "t0": t0,
-                  "lyapunov": bool(lyapunov), "solver_version": SOLVER_VERSION},
+                  "lyapunov": bool(lyapunov), "noise": noise, "solver_version": SOLVER_VERSION},
+        rounding_decided=bool(rounding), loop_amplification=float(loop_amp) / math.log(10.0),
+        noise_kicks=int(kicks),
     )
 
 

@@ -9,8 +9,9 @@ from __future__ import annotations
 import functools
 from pathlib import Path
 
-from ..batch.sweep import SweepResult
+from ..batch.sweep import SCHEMA_VERSION, SweepResult
 from ..model.params import RattleParams
+from ..solver.trajectory import SOLVER_VERSION
 from .files import load_result
 
 #: Where the shipped diagrams live (inside the package).
@@ -48,10 +49,14 @@ def load_asset(name: str) -> SweepResult | None:
 
 def find_asset(base: RattleParams, name: str) -> tuple[str, SweepResult] | None:
     """``(asset name, diagram)`` of a shipped diagram that sweeps ``name`` with every other
-    parameter equal to ``base``'s, or None."""
+    parameter equal to ``base``'s, written by this solver and schema version; or None."""
     for asset in list_assets():
-        res = load_asset(asset)
-        if res is None or res.name != name:
+        found = read_asset(asset)
+        if found is None:
+            continue
+        res, meta = found
+        if (res.name != name or meta.get("solver") != SOLVER_VERSION
+                or meta.get("schema") != SCHEMA_VERSION):
             continue
         try:
             same = res.params.with_value(name, base.get(name)).canonical() == base.canonical()

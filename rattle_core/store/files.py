@@ -23,7 +23,8 @@ from ..solver.trajectory import SOLVER_VERSION
 _SUMMARY_TYPES = {"value": np.float64, "regime": "U8", "period": np.int32, "n_active": np.int32,
                   "n_reverse": np.int32, "active_per_period": np.float64,
                   "reverse_per_period": np.float64, "chaotic": np.bool_, "lyapunov": np.float64,
-                  "stick_fraction": np.float64, "intensity": np.float64, "status": np.int8}
+                  "stick_fraction": np.float64, "intensity": np.float64,
+                  "sticking": "U22", "loop_amplification": np.float64, "status": np.int8}
 
 
 def atomic_savez(path: Path, arrays: dict) -> None:
