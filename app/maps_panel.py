@@ -12,8 +12,8 @@ per axis, and presses Compute. The map runs through :func:`rattle_core.store.req
   took);
 * on local cores, or on Dask when the "Dask scheduler" field holds ``tcp://host:port`` (a
   shared ``Client`` per address) or ``local`` (one 2-worker ``LocalCluster`` per server
-  process, closed at exit; :mod:`rattle_core.batch.executor`). ``rattle serve --scheduler``/``--dask local`` set the field's
-  default through :func:`set_default_scheduler`.
+  process, closed at exit; :mod:`rattle_core.batch.executor`). ``rattle serve --scheduler``/
+  ``--dask local`` set the field's default through :func:`set_default_scheduler`.
 
 The map is a Bokeh image whose data source (``map_image``) also holds, per cell, the values the
 hover tool shows. A click on a regime map sets the dashboard's parameters to that point (through

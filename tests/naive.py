@@ -1,4 +1,4 @@
-"""Slow, obvious references for the rattle model, written from ``MODEL.md`` alone.
+"""Slow, obvious references for the rattle model, written from ``docs/model.md`` alone.
 
 Nothing here imports ``rattle_core``: the compiled solver is checked against code that shares
 none of its kernels, bounds or tolerances.
@@ -110,7 +110,7 @@ def _scan_grid(s1, ds, smax):
 
 def naive_simulate(lam, r, j, h, phi, v_stick, t0, x0, v0, t_end, ds=TWO_PI / 1000,
                    max_events=200_000) -> NaiveRun:
-    """Plain-Python event loop for the rattle model (MODEL.md), from ``t0`` to ``t_end``.
+    """Plain-Python event loop for the rattle model (docs/model.md), from ``t0`` to ``t_end``.
 
     Parameters
     ----------

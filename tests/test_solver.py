@@ -25,7 +25,7 @@ def y_of(p: RattleParams, t, m: int = 0):
 
 
 def c_orbit(lam: float, r: float = R) -> tuple[float, float]:
-    """Impact phase θ and post-impact velocity of the regime C orbit (MODEL.md).
+    """Impact phase θ and post-impact velocity of the regime C orbit (docs/model.md).
 
     Flight time 2π and a symmetric parabola give ẋ⁺ = π/Λ, ẋ⁻ = −π/Λ; the impact law then needs
     ẏ(θ) = −sin θ = (1 − r)π / ((1 + r)Λ).  Of the two roots, the one with cos θ > 0 (the wall

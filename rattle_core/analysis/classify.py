@@ -344,8 +344,8 @@ def classify_batch(counts: np.ndarray, impulse: np.ndarray, flank: np.ndarray,
 
 
 def classify(tr) -> Classification:
-    """Classify a :class:`~rattle_core.trajectory.Trajectory` (simulate it with ``lyapunov=True``
-    for the exponent; otherwise it is NaN and chaos cannot be flagged)."""
+    """Classify a :class:`~rattle_core.solver.trajectory.Trajectory` (simulate it with
+    ``lyapunov=True`` for the exponent; otherwise it is NaN and chaos cannot be flagged)."""
     return classify_arrays(tr.impact_impulse, tr.impact_flank, tr.strobe_x, tr.strobe_v,
                            tr.periods, tr.stick_time, tr.lyapunov, tr.params.j,
                            tr.rounding_decided, tr.loop_amplification, tr.noise_kicks)

@@ -26,7 +26,7 @@ Time scale
 The solver's time is ``t = ω t_phys``.  In dimensionless mode the fundamental excitation
 frequency ``f = ω / 2π`` defaults to :data:`DEFAULT_EXCITATION_HZ` = 50 Hz (a four-cylinder
 four-stroke engine, order 2, at 1500 rpm).  In physical-units mode it follows the engine speed:
-``f = order × rpm / 60`` (:class:`~rattle_core.units.PhysicalParams`), and the impulses are
+``f = order × rpm / 60`` (:class:`~rattle_core.model.units.PhysicalParams`), and the impulses are
 scaled to newton-seconds, ``I = Ĩ m ω H₁``.
 
 Default housing modes (:data:`DEFAULT_MODES`)

@@ -177,7 +177,7 @@ def regime_map(base: RattleParams, x_name: str, x_values, y_name: str, y_values,
     x0, v0 : float
         Common start state at t = 0 (``x0=None``: mid-backlash).
     progress, cancel, executor, chunk_size
-        As for :func:`~rattle_core.sweep.sweep`.
+        As for :func:`~rattle_core.batch.sweep.sweep`.
     """
     parse_name(x_name)
     parse_name(y_name)

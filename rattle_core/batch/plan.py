@@ -27,7 +27,7 @@ def point_params(params: RattleParams, phys: Any, names: tuple[str, ...],
                  point: tuple[float, ...]) -> RattleParams:
     """The dimensionless parameters at one grid point: physical axes first, then the others.
 
-    ``phys`` (a :class:`~rattle_core.units.PhysicalParams`, or None) holds the physical
+    ``phys`` (a :class:`~rattle_core.model.units.PhysicalParams`, or None) holds the physical
     values not swept; a physical axis replaces its field (``rpm``, ``drag_torque``, ...) and
     the point's ``RattleParams`` follows from :meth:`PhysicalParams.to_dimensionless`.
     """

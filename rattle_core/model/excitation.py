@@ -89,5 +89,5 @@ def excitation(t, h, phi, order: int = 0) -> np.ndarray:
 
 
 def params_excitation(params, t, order: int = 0) -> np.ndarray:
-    """:func:`excitation` for a :class:`~rattle_core.params.RattleParams`."""
+    """:func:`excitation` for a :class:`~rattle_core.model.params.RattleParams`."""
     return excitation(t, params.h, params.phi, order)

@@ -228,7 +228,8 @@ def evidence_markdown(table: pd.DataFrame) -> str:
         f"* Λ = 3.3: one run per case, {st.get('transient', 500)} + "
         f"{st.get('point_record', 1000)} periods, with the largest Lyapunov exponent "
         "(saltation matrices; measured between stick phases).",
-        "* Regimes as in `rattle_core.classify`: A permanent contact, B impacts and sticking, "
+        "* Regimes as in `rattle_core.analysis.classify` (docs/model.md, \"Regimes\"): A "
+        "permanent contact, B impacts and sticking, "
         "C period 1 with one active impact, D chaotic (non-repeating section and λ > 1e-3), "
         "E period 1 with one impact per flank, P other periodic, Q other non-repeating.",
         "* A sine reading is shifted by a quarter period in time so that the first harmonic "
