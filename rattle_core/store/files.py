@@ -70,15 +70,29 @@ def save_result(path: Path | str, result: SweepResult, compact: bool = False,
     atomic_savez(path, arrays)
 
 
+#: Summary columns added after schema 1, and the value a file without them stands for.
+_ADDED_COLUMNS = {"sticking": "", "loop_amplification": -np.inf}
+
+
+def _missing(col: str, z) -> np.ndarray:
+    """A column an older file lacks, filled with what its absence meant (or a KeyError)."""
+    if col not in _ADDED_COLUMNS:
+        raise KeyError(f"s_{col}")
+    return np.full(len(z["values"]), _ADDED_COLUMNS[col], dtype=_SUMMARY_TYPES[col])
+
+
 def load_result(path: Path | str) -> tuple[SweepResult, dict]:
-    """Read a sweep written by :func:`save_result`; returns ``(result, meta)``."""
+    """Read a sweep written by :func:`save_result`; returns ``(result, meta)``.  A file written
+    before the ``sticking`` columns existed reads with them empty; its ``meta`` still says which
+    schema and solver wrote it, so the cache and the assets never serve it as current."""
     import pandas as pd
     with np.load(path, allow_pickle=False) as z:
         meta = json.loads(str(z["meta"]))
         table = pd.DataFrame({"value": z["t_value"].astype(np.float64),
                               "impulse": z["t_impulse"].astype(np.float64),
                               "flank": z["t_flank"], "phase": z["t_phase"].astype(np.float64)})
-        summary = pd.DataFrame({col: z[f"s_{col}"] for col in _SUMMARY_TYPES})
+        summary = pd.DataFrame({col: z[f"s_{col}"] if f"s_{col}" in z.files else _missing(col, z)
+                                for col in _SUMMARY_TYPES})
         values = z["values"]
     params = RattleParams.from_dict(meta["params"])
     return SweepResult(name=meta["name"], values=values, params=params, settings=meta["settings"],
