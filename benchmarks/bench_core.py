@@ -9,11 +9,14 @@ Prints, for regime E (Λ = 3.3, harmonic) and two chaotic cases:
   (DOP853, rtol = atol = 1e-12, max_step = 0.05) reproduces the solver's impact times to 1e-8;
   a lax one (rtol = 1e-8, atol = 1e-10, max_step = 0.2) is shown too, with its error, so the
   ratio does not rest on a slow choice of settings;
+* the limits, each against a plain run of the same length as its baseline: a chatter that
+  ends in a stick phase (20 periods), the reaction touching zero at Λ ≈ 1 (400 periods), and a
+  runaway stopped by ``max_impacts_per_period = 5`` (the time until ``SolverError``);
 * the cold start (a fresh interpreter: import plus first ``simulate`` with an empty numba cache)
   and the warm start (the same, with the cache filled).
 
 Targets, printed beside the figures: ≥ 2e6 impacts/s on one core, ≥ 1000× the baseline,
-cold start ≤ 15 s, warm start ≤ 1.5 s.
+chatter ≤ 5 s, Λ ≈ 1 ≤ 10 s, runaway stopped ≤ 1 s, cold start ≤ 15 s, warm start ≤ 1.5 s.
 
 Run from the repository root::
 
@@ -44,13 +47,15 @@ sys.path.insert(0, str(ROOT / "tests"))
 import numba  # noqa: E402
 
 from naive import ReferenceError_, ivp_simulate  # noqa: E402
-from rattle_core import RattleParams, simulate  # noqa: E402
+from rattle_core import RattleParams, SolverError, simulate  # noqa: E402
 
 TWO_PI = 2.0 * np.pi
 TARGET_IMPACTS_PER_S = 2e6
 TARGET_RATIO = 1000.0
 TARGET_COLD_S = 15.0
 TARGET_WARM_S = 1.5
+#: Longest acceptable wall time of each limit case (seconds).
+TARGET_LIMITS_S = {"chatter": 5.0, "touching": 10.0, "runaway": 1.0}
 
 CASES = {
     "E: harmonic, Λ = 3.3 (periodic, 2 impacts/period)": RattleParams(lam=3.3),
@@ -158,6 +163,44 @@ def run_cases(quick: bool) -> None:
                   f"→ {verdict(ratio_per >= TARGET_RATIO)}")
 
 
+def _best_s(fn, repeats: int) -> float:
+    out = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        fn()
+        out.append(time.perf_counter() - t)
+    return min(out)
+
+
+def run_limits(quick: bool) -> None:
+    """Cases that stress the event loop's limits, each beside a plain run of the same length."""
+    print("\n== Limits: chatter, the reaction touching zero, a runaway (best of repeats, one core)")
+    reps = 2 if quick else 5
+
+    def stopped():
+        try:
+            simulate(RattleParams(lam=0.8, r=0.65, j=8.0), periods=50, max_impacts_per_period=5)
+        except SolverError:
+            return
+        raise RuntimeError("the runaway limit did not fire")
+    cases = [
+        ("chatter", "chatter to a stick phase, Λ = 0.8, r = 0.9, v_stick = 0, 20 periods",
+         lambda: simulate(RattleParams(lam=0.8, r=0.9, j=8.0, v_stick=0.0), periods=20), 20),
+        ("touching", "reaction touching zero, Λ = 1 − 1e-15 from the reverse wall, 400 periods",
+         lambda: simulate(RattleParams(lam=1.0 - 1e-15), periods=400, x0=9.0), 400),
+        ("runaway", "runaway stopped by max_impacts_per_period = 5 (time to SolverError)",
+         stopped, 50),
+    ]
+    for key, title, fn, periods in cases:
+        fn()  # compile outside the timing
+        t = _best_s(fn, reps)
+        base = _best_s(lambda: simulate(RattleParams(lam=3.3), periods=periods), reps)
+        target = TARGET_LIMITS_S[key]
+        print(f"   {title}: {t * 1e3:8.2f} ms; baseline regime E, {periods} periods: "
+              f"{base * 1e3:7.2f} ms (ratio {t / base:5.1f}×); target ≤ {target:g} s "
+              f"→ {verdict(t <= target)}")
+
+
 START_CODE = """
 import time
 t0 = time.perf_counter()
@@ -207,6 +250,7 @@ def main() -> None:
           f"numpy {np.__version__}, numba {numba.__version__}, {platform.machine()}, "
           f"{os.cpu_count()} CPUs visible")
     run_cases(args.quick)
+    run_limits(args.quick)
     if not args.skip_start:
         run_start(args.quick)
 

@@ -10,8 +10,9 @@ none of its kernels, bounds or tolerances.
   applies the same impact law, ``v_stick`` rule and stick/release rule as the model, so it
   agrees with the solver on every contact that is not grazing; a grazing contact (the gap dips
   below zero for less than one grid step) is exactly what it may miss.
-* :func:`classify_reference` applies the classification definitions of ``rattle_core.analysis.classify``
-  with plain numpy expressions, one window at a time (the library runs them compiled).
+* :func:`classify_reference` applies the regime rules of ``docs/model.md`` with plain numpy
+  expressions, one window at a time (the library runs them compiled): the one copy of those
+  rules in the tests.
 * :func:`ivp_simulate` integrates ``Λ ẍ = −1`` with ``scipy.integrate.solve_ivp`` (DOP853,
   tight tolerances) and terminal events on both gaps.  It handles flights and impacts only, and
   stops with an error at the first contact slow enough to start a stick phase.
@@ -357,6 +358,14 @@ def ivp_simulate(lam, r, j, h, phi, v_stick, t0, x0, v0, t_end, rtol=1e-12, atol
         t_end=float(t_end))
 
 
+def classify_trajectory(tr) -> dict:
+    """:func:`classify_reference` of a simulated trajectory's recorded window."""
+    return classify_reference(tr.impact_impulse, tr.impact_flank, tr.strobe_x, tr.strobe_v,
+                              tr.periods, tr.stick_time, tr.lyapunov, tr.params.j,
+                              rounding=tr.rounding_decided,
+                              loop_amplification=tr.loop_amplification, kicks=tr.noise_kicks)
+
+
 def _reference_period(sx, sv, scale, max_period, tol):
     m = len(sx)
     if m < 4:
@@ -370,10 +379,17 @@ def _reference_period(sx, sv, scale, max_period, tol):
     return 0
 
 
+#: The regime rules' numbers, as docs/model.md ("Regimes") states them.
+MAX_PERIOD = 32
+PERIOD_TOL = 1e-6
+LYAP_CHAOS = 1e-3
+
+
 def classify_reference(impulse, flank, strobe_x, strobe_v, periods, stick_time, lyapunov, j,
-                       *, max_period, tol, chaos, rounding=False, loop_amplification=-np.inf,
-                       kicks=0) -> dict:
-    """Regime, period, kind of sticking and rattle metrics of one window, from the definitions."""
+                       *, max_period=MAX_PERIOD, tol=PERIOD_TOL, chaos=LYAP_CHAOS,
+                       rounding=False, loop_amplification=-np.inf, kicks=0) -> dict:
+    """Regime, period, kind of sticking and rattle metrics of one window, from the definitions
+    (docs/model.md, "Regimes"): the one copy of the regime rules the tests hold."""
     periods = max(float(periods), 1e-300)
     act, rev = flank == 1, flank == -1
     n_act, n_rev = int(act.sum()), int(rev.sum())

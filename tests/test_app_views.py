@@ -203,14 +203,14 @@ def _xsum(d) -> float:
     return float(np.sum(d.th_src["motion"].data["x"]))
 
 
-def test_slider_move_redraws_views_within_budget(dash):
-    """Moving Λ redraws time history, section and badge from one new trajectory in ≤ 150 ms."""
+def test_slider_move_redraws_views(dash):
+    """Moving Λ redraws time history, section and badge from one new trajectory (how fast:
+    benchmarks/bench_app.py)."""
     before = _xsum(dash)
     dash.widgets["lam"].value = 3.4
     assert dash.state.lam == 3.4 and dash.tr.params.lam == 3.4
     assert _xsum(dash) != before
     assert len(dash.sec_src["points"].data["x"]) == dash.state.periods
-    assert dash.last_update_ms < 150
 
 
 def test_rejected_value_keeps_the_last_good_view(dash):

@@ -1,20 +1,10 @@
 """The paper's claim 1: harmonic excitation, r = 0.65, j = 8, regimes A, B, C, D, E in order of Λ.
 
 Protocol (one run per Λ): ``simulate(params, periods=100, transient=300, lyapunov=True)`` from
-the API's default start, at rest in the middle of the backlash at t = 0.  The regime is read from
-the recorded window with simple statistics, computed here rather than by ``rattle_core.analysis.classify``
-so that the claim is checked independently of that module:
-
-* **A** permanent contact: the gear is stuck during the window and makes no impact.
-* **B** impacts and permanent contact: stuck for part of the window, with impacts.
-* **C** one impact per period on the active flank: no sticking, the stroboscopic samples repeat
-  every period (to 1e-6) and there are exactly as many active impacts as periods, and no
-  reverse ones.
-* **E** two impacts per period, one per flank: as C, with one active and one reverse impact
-  per period.
-* **D** chaos: no sticking, no period up to 32 in the stroboscopic samples, and a largest
-  Lyapunov exponent above 0.01.
-* anything else (other periodic orbits, e.g. period doublings; undecided cases) is left out.
+the API's default start, at rest in the middle of the backlash at t = 0.  The regime of the
+recorded window comes from ``tests/naive.py``'s ``classify_reference`` (the rules of
+docs/model.md in plain numpy), not from ``rattle_core.analysis.classify``, so that the claim is
+checked independently of that module.
 
 Several attractors coexist at some Λ (for example a B orbit beside the C orbit near
 Λ = 1.2 when the gear starts on the active flank); the claim is about the order in which the
@@ -25,38 +15,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from naive import classify_trajectory
 from rattle_core import RattleParams, simulate
 
 R = 0.65
 J = 8.0
 PERIODS = 100
 TRANSIENT = 300
-STROBE_TOL = 1e-6
-MAX_PERIOD = 32
-LYAP_CHAOS = 0.01
 
 
-def classify(tr, periods: int = PERIODS) -> str:
-    """Regime letter (A–E) of a recorded window, or 'P' (other periodic) / '?' (undecided)."""
-    fl = tr.impact_flank
-    n_active = int(np.sum(fl == 1))
-    n_reverse = int(np.sum(fl == -1))
-    if tr.stick_time > 0.0:
-        return "A" if len(fl) == 0 else "B"
-    sx, sv = tr.strobe_x, tr.strobe_v
-    period = None
-    for q in range(1, MAX_PERIOD + 1):
-        if (np.all(np.abs(sx[q:] - sx[:-q]) < STROBE_TOL)
-                and np.all(np.abs(sv[q:] - sv[:-q]) < STROBE_TOL)):
-            period = q
-            break
-    if period == 1 and n_active == periods and n_reverse == 0:
-        return "C"
-    if period == 1 and n_active == periods and n_reverse == periods:
-        return "E"
-    if period is None and tr.lyapunov > LYAP_CHAOS:
-        return "D"
-    return "P" if period else "?"
+def classify(tr) -> str:
+    """Regime letter of a recorded window, by the reference rules."""
+    return classify_trajectory(tr)["regime"]
 
 
 def scan(lams) -> np.ndarray:

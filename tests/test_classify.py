@@ -186,6 +186,17 @@ def _varied_windows(record):
     ]
 
 
+def test_the_rules_numbers_are_those_of_the_model_document():
+    """The library's period search and chaos threshold are docs/model.md's (as tests/naive.py
+    states them), and its regime letters are the vocabulary's, in code order."""
+    import naive
+    from rattle_core.analysis.vocabulary import LETTERS, REGIME_CODES
+    assert (MAX_PERIOD, PERIOD_TOL, LYAP_CHAOS) == (naive.MAX_PERIOD, naive.PERIOD_TOL,
+                                                    naive.LYAP_CHAOS)
+    assert REGIME_LETTERS == tuple("ABCDEPQ") and LETTERS == REGIME_LETTERS + ("error",)
+    assert [REGIME_CODES[g] for g in LETTERS] == list(range(len(LETTERS)))
+
+
 @pytest.mark.parametrize("record", [100, 41, 3])
 def test_classify_batch_equals_classify_arrays(record):
     """The compiled batch classification gives exactly the numbers of ``classify_arrays`` and
@@ -198,8 +209,7 @@ def test_classify_batch_equals_classify_arrays(record):
     wins.append((imp, fl, sx, sv, st, ly, j))
     ref = [classify_arrays(imp, fl, sx, sv, record, st, ly, j)
            for imp, fl, sx, sv, st, ly, j in wins]
-    slow = [classify_reference(imp, fl, sx, sv, record, st, ly, j, max_period=MAX_PERIOD,
-                               tol=PERIOD_TOL, chaos=LYAP_CHAOS)
+    slow = [classify_reference(imp, fl, sx, sv, record, st, ly, j)
             for imp, fl, sx, sv, st, ly, j in wins]
     got = classify_batch(np.array([len(w[0]) for w in wins]), np.concatenate([w[0] for w in wins]),
                          np.concatenate([w[1] for w in wins]), np.stack([w[2] for w in wins]),

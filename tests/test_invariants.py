@@ -6,7 +6,7 @@ the wall it hit, and each impulse obeys the restitution law ``|Ĩ| = (1 + r)|w|`
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import HealthCheck, given, note, settings
+from hypothesis import HealthCheck, assume, given, note, settings
 from hypothesis import strategies as st
 
 from naive import y_derivative
@@ -77,8 +77,7 @@ def test_gear_stays_inside_the_backlash(case):
 def test_every_impact_sends_the_gear_away_from_the_wall(case):
     """Impacts happen on the wall, moving into it; afterwards the relative velocity points away."""
     p, tr = run(case)
-    if len(tr.impact_t) == 0:
-        return
+    assume(len(tr.impact_t) > 0)  # a draw without impacts checks nothing here
     t = tr.impact_t
     fl = tr.impact_flank
     y = y_derivative(t, p.h, p.phi)
@@ -102,8 +101,7 @@ def test_every_impact_sends_the_gear_away_from_the_wall(case):
 def test_impulse_obeys_the_restitution_law(case):
     """|Ĩ| = (1 + r)|w| to 1e-12 relative, and the impulse sign is the flank (+ active, − reverse)."""
     p, tr = run(case)
-    if len(tr.impact_t) == 0:
-        return
+    assume(len(tr.impact_t) > 0)  # a draw without impacts checks nothing here
     np.testing.assert_allclose(np.abs(tr.impact_impulse), (1 + p.r) * np.abs(tr.impact_w),
                                rtol=1e-12, atol=1e-15)
     np.testing.assert_array_equal(np.sign(tr.impact_impulse), tr.impact_flank)

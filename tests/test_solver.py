@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 import pytest
@@ -116,9 +115,7 @@ def test_chatter_then_permanent_contact_from_mid_backlash(lam):
 def test_chatter_ends_in_finite_time_with_bounded_impacts(lam, r, v_stick):
     """Chatter ends: at most log(v/|w|max)/log r + 5 impacts, then a stick phase; v_stick = 0 too."""
     p = RattleParams(lam=lam, r=r, j=J, v_stick=v_stick)
-    t0 = time.perf_counter()
     tr = simulate(p, periods=20)
-    assert time.perf_counter() - t0 < 5.0
     v_eff = max(v_stick, solver.V_FLOOR)
     w_max = np.max(np.abs(tr.impact_w))
     bound = 1 if r == 0.0 else math.log(v_eff / w_max) / math.log(r) + 5
@@ -146,9 +143,7 @@ def test_zero_v_stick_chatters_down_to_the_velocity_floor():
 def test_reaction_touching_zero_does_not_stall(lam, x0):
     """Λ ≈ 1 (R̃ = 1 − Λ cos t touches 0 at t = 0), started at t = 0: 400 periods, no SolverError."""
     p = RattleParams(lam=lam, r=R, j=J)
-    t0 = time.perf_counter()
     tr = simulate(p, periods=400, x0=x0)
-    assert time.perf_counter() - t0 < 10.0
     if x0 is None or x0 == 1.0:
         # resting on the active flank, the reaction is ≥ 0 (up to ~1e-7): permanent contact
         assert tr.stick_time > 0.95 * 400 * TWO_PI
@@ -428,14 +423,12 @@ def test_late_start_time_gives_the_same_orbit():
 # ----- limits: runaway, never hang -------------------------------------------------------------
 
 
-def test_runaway_chatter_raises_quickly():
-    """max_impacts_per_period = 5 in a chattering case raises SolverError saying so, in < 1 s."""
+def test_runaway_chatter_raises():
+    """max_impacts_per_period = 5 in a chattering case raises SolverError saying so (how fast:
+    benchmarks/bench_core.py)."""
     p = RattleParams(lam=0.8, r=R, j=J)
-    simulate(p, periods=1)  # compile outside the timing
-    t0 = time.perf_counter()
     with pytest.raises(SolverError) as err:
         simulate(p, periods=50, max_impacts_per_period=5)
-    assert time.perf_counter() - t0 < 1.0
     msg = str(err.value)
     assert "runaway" in msg and "max_impacts_per_period" in msg and "5" in msg
 
