@@ -359,6 +359,80 @@ def test_bad_arguments_give_one_line_and_exit_2(argv, message, capsys, tmp_path,
     assert not list(tmp_path.glob("x.*"))  # nothing half-written
 
 
+@pytest.fixture()
+def no_work(monkeypatch):
+    """Every computation a command could start fails the test: errors must come first."""
+    import rattle_cli.commands.sweep as sweep_command
+    import rattle_core.paper.figures as figures
+
+    def started(*a, **k):
+        raise AssertionError("work started before the request was checked")
+    for mod, name in ((sweep_command, "sweep"), (sweep_command, "cached_sweep"),
+                      (sweep_command, "run_map"), (simulate_command, "simulate"),
+                      (figures, "write_paper_figures")):
+        monkeypatch.setattr(mod, name, started)
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["sweep", "--values", "1", "--out", "{dir}/table.csv"], "is a directory; give a file name"),
+    (["sweep", "--values", "1", "--out", "/proc/x.csv"], "cannot write in directory '/proc'"),
+    (["sweep", "--values", "1", "--out", "x.csv", "--png", "/proc/x.png"],
+     "--png '/proc/x.png': cannot write in directory '/proc'"),
+    (["sweep", "--values", "1", "--out", "x.csv", "--png", "{dir}"], "the extension must be one of .png"),
+    (["sweep", "--values", "1", "--out", "x.csv", "--png", "{dir}/picture.png"], "is a directory"),
+    (["sweep", "--values", "1", "--out", ""], "--out is empty"),
+    (["simulate", "--impacts", ""], "--impacts is empty"),
+    (["simulate", "--history", "/proc/h.parquet"], "cannot write in directory '/proc'"),
+    (["simulate", "--impacts", "{dir}/table.csv"], "is a directory"),
+    (["paper", "--out", ""], "--out is empty; give a directory"),
+    (["paper", "--out", "{file}"], "exists and is not a directory"),
+    (["paper", "--out", "/proc/figures"], "cannot write in directory '/proc'"),
+    (["sweep", "--start", "1", "--stop", "inf", "--out", "x.csv"], "--stop inf must be a finite number"),
+    (["sweep", "--start=-inf", "--stop", "2", "--out", "x.csv"], "--start -inf must be a finite number"),
+    (["sweep", "--values", "1", "--param2", "r", "--start2", "0.1", "--stop2", "nan", "--out", "x.csv"],
+     "--stop2 nan must be a finite number"),
+    (["sweep", "--values", "1,inf", "--out", "x.csv"], "values must all be finite, got inf"),
+    (["sweep", "--x0", "inf", "--values", "1", "--out", "x.csv"], "--x0 inf must be a finite number"),
+    (["sweep", "--start", "1", "--stop", "3", "--num", "1000", "--transient", "1000000",
+      "--out", "x.csv"], "over the budget of 1e+08 per request"),
+    (["sweep", "--values", "1,2", "--param2", "r", "--start2", "0.1", "--stop2", "0.9",
+      "--num2", "1000", "--transient", "100000", "--out", "x.csv"], "over the budget"),
+])
+def test_bad_outputs_and_requests_are_refused_before_any_work(argv, message, capsys, tmp_path,
+                                                              monkeypatch, no_work):
+    """Unusable output paths (empty, a directory, an unwritable directory), infinite ranges and
+    requests over the period budget are one 'rattle: error:' line, exit 2, before any work."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "a_dir").mkdir()
+    (tmp_path / "a_dir" / "table.csv").mkdir()
+    (tmp_path / "a_dir" / "picture.png").mkdir()
+    (tmp_path / "a_file").write_text("x")
+    argv = [a.format(dir=tmp_path / "a_dir", file=tmp_path / "a_file") for a in argv]
+    code, _, err = run(argv, capsys)
+    assert code == 2, err
+    assert len(err.splitlines()) == 1 and err.startswith("rattle: error: ") and message in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a_dir", "a_file"]
+
+
+def test_cache_command_shows_and_clears(tmp_path, capsys, monkeypatch):
+    """``rattle cache`` shows the directory, its entries and the size limit; ``clear`` empties it."""
+    cache_dir = tmp_path / "cache"
+    monkeypatch.setenv("RATTLE_CACHE_DIR", str(cache_dir))
+    monkeypatch.setenv("RATTLE_CACHE_SIZE_MB", "50")
+    code, out, err = run(["sweep", "--values", "1.5,2.5", "--transient", "20", "--record", "5",
+                          "--out", str(tmp_path / "s.csv"), "--no-png", "-q"], capsys)
+    assert code == 0, err
+    code, out, _ = run(["cache", "show"], capsys)
+    assert code == 0
+    assert str(cache_dir) in out and "1 entries (1 sweeps, 0 maps)" in out and "of 50.0 MB" in out
+    assert "sweep-" in out
+    code, out, _ = run(["cache", "clear"], capsys)
+    assert code == 0 and "cleared" in out and "1 files" in out
+    assert list(cache_dir.glob("*.npz")) == []
+    code, out, _ = run(["cache"], capsys)
+    assert code == 0 and "0 entries" in out
+
+
 def test_solver_limit_exits_1_with_one_line(monkeypatch, capsys, tmp_path):
     """A run stopped by the solver (SolverError) is one line and exit status 1."""
     def runaway(*args, **kwargs):

@@ -238,6 +238,24 @@ def test_bad_input_raises_value_error_naming_it(kwargs, word):
         sweep(**args)
 
 
+def test_period_budget_is_the_documented_one():
+    """A sweep or a map of more than PERIOD_BUDGET forcing periods is refused before it runs,
+    naming the product and the budget; one just under the budget is accepted (and cancelled)."""
+    from rattle_core.batch.maps import regime_map
+    from rattle_core.batch.sweep import PERIOD_BUDGET
+    n = 1000
+    over = int(PERIOD_BUDGET // n)  # n × (over + 1) periods: just over the budget
+    with pytest.raises(ValueError, match=r"values × \(transient \+ record\) = 1e\+08 forcing "
+                                         r"periods is over the budget of 1e\+08"):
+        sweep(HARM, "lam", np.linspace(1, 2, n), transient=over, record=1)
+    with pytest.raises(ValueError, match="points × .* is over the budget"):
+        regime_map(HARM, "lam", np.linspace(1, 2, 10), "r", np.linspace(0.1, 0.9, 100),
+                   transient=over, record=1)
+    res = sweep(HARM, "lam", np.linspace(1, 2, n), transient=over - 1, record=1,
+                cancel=lambda: True)
+    assert res.cancelled
+
+
 def test_too_many_values():
     """More than ``MAX_VALUES`` values is refused with a message naming ``values``."""
     with pytest.raises(ValueError, match="values"):

@@ -11,7 +11,7 @@ import numpy as np
 from rattle_core.analysis.vocabulary import LETTERS
 from rattle_core.batch.executor import dask_session
 from rattle_core.batch.plan import plan_map
-from rattle_core.batch.sweep import sweep, validate_sweep_args
+from rattle_core.batch.sweep import check_budget, sweep, validate_sweep_args
 from rattle_core.model.units import rpm_sweep
 from rattle_core.paper.drawing import map_png, sweep_png
 from rattle_core.store.cache import cached_sweep
@@ -36,7 +36,8 @@ def add_parser(sub, quiet) -> None:
                                    "OUT_summary.  A PNG of the diagram goes next to OUT unless "
                                    "--no-png.  Results are cached on disk ($RATTLE_CACHE_DIR; see 'rattle cache').  "
                                    "One request may run up to 1e8 forcing periods (values × "
-                                   "(transient + record)), a few minutes on two cores.")
+                                   "(transient + record)), 5 to 10 minutes on two cores "
+                                   "(rattle_core.batch.sweep.PERIOD_BUDGET).")
     add_model_options(p)
     s = p.add_argument_group("sweep")
     s.add_argument("--param", default="lam",
@@ -217,6 +218,7 @@ def _run_map(args: argparse.Namespace, out: Path, png: Path | None, params, phys
     labels = ("--param", "--param2")
     # Work out (and reject) how the grid maps onto the model before starting any workers.
     basin = plan_map(params, phys, names[0], xv, names[1], yv, labels)[0] == "basin"
+    check_budget(xv.size * yv.size * (transient + record), "points × (transient + record)")
     scheduler = _scheduler(args)
     progress = Progress(f"map {names[0]} × {names[1]}", enabled=not args.quiet,
                         total=xv.size * yv.size, unit="point")

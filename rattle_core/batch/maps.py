@@ -34,7 +34,7 @@ from ..model.params import RattleParams, check_range, parse_name
 from ..solver.trajectory import MAX_PERIODS, SOLVER_VERSION, _check_int
 from .chunks import run_chunk, summary_arrays
 from .executor import run_chunks
-from .sweep import SCHEMA_VERSION
+from .sweep import SCHEMA_VERSION, check_budget
 
 MAX_GRID = 4_000_000
 
@@ -81,7 +81,7 @@ def _grid_args(name: str, values, label: str) -> np.ndarray:
     if vals.size == 0:
         raise ValueError(f"{label} is empty; give at least one value")
     if not np.all(np.isfinite(vals)):
-        raise ValueError(f"{label} must all be finite, got {vals[~np.isfinite(vals)][0]!r}")
+        raise ValueError(f"{label} must all be finite, got {float(vals[~np.isfinite(vals)][0])!r}")
     return vals
 
 
@@ -91,9 +91,7 @@ def _check_size(nx: int, ny: int, transient: int, record: int) -> tuple[int, int
     if nx * ny > MAX_GRID:
         raise ValueError(f"the grid has {nx}×{ny} = {nx * ny} points; the allowed range is "
                          f"up to {MAX_GRID}")
-    if nx * ny * (transient + record) > 5e10:
-        raise ValueError(f"points × (transient + record) = {nx * ny * (transient + record):.3g} "
-                         "periods; the allowed range is up to 5e10")
+    check_budget(nx * ny * (transient + record), "points × (transient + record)")
     return transient, record
 
 

@@ -33,6 +33,10 @@ if TYPE_CHECKING:  # pandas is imported on first use: it costs a quarter second 
 
 #: Largest number of values one sweep may hold.
 MAX_VALUES = 1_000_000
+#: Most forcing periods one sweep or map may run in all (values × (transient + record)).
+#: Two cores run about 1.5e5 (chaotic) to 3.5e5 (periodic) periods a second: minutes, not hours.
+PERIOD_BUDGET = 1e8
+PERIOD_BUDGET_MINUTES = "5 to 10"
 SCHEMA_VERSION = 2
 SUMMARY_COLUMNS = ["value", "regime", "period", "n_active", "n_reverse", "active_per_period",
                    "reverse_per_period", "chaotic", "lyapunov", "stick_fraction", "intensity",
@@ -104,16 +108,22 @@ def validate_sweep_args(name: str, values: Sequence[float], transient: int, reco
     if vals.size > MAX_VALUES:
         raise ValueError(f"values has {vals.size} entries; the allowed range is 1 to {MAX_VALUES}")
     if not np.all(np.isfinite(vals)):
-        bad = vals[~np.isfinite(vals)][0]
+        bad = float(vals[~np.isfinite(vals)][0])
         raise ValueError(f"values must all be finite, got {bad!r}")
     transient = _check_int("transient", transient, 0, MAX_PERIODS)
     record = _check_int("record", record, 1, 100_000)
     if mode not in ("fresh", "continuation"):
         raise ValueError(f"mode = {mode!r}; allowed: 'fresh' or 'continuation'")
-    if vals.size * (transient + record) > 5e9:
-        raise ValueError(f"values × (transient + record) = {vals.size * (transient + record):.3g} "
-                         "periods; the allowed range is up to 5e9")
+    check_budget(vals.size * (transient + record), "values × (transient + record)")
     return vals, transient, record
+
+
+def check_budget(periods: float, what: str) -> None:
+    """Refuse a request of more forcing periods than :data:`PERIOD_BUDGET`, naming ``what``."""
+    if periods > PERIOD_BUDGET:
+        raise ValueError(f"{what} = {periods:.3g} forcing periods is over the budget of "
+                         f"{PERIOD_BUDGET:.0e} per request (about {PERIOD_BUDGET_MINUTES} minutes "
+                         "on two cores); ask for fewer values or periods, or split the request")
 
 
 def sweep(base: RattleParams, name: str, values: Sequence[float], transient: int = 500,
