@@ -4,6 +4,7 @@
 * ``excitation``: the driving tooth's motion ``y(t) = Σ h_k cos(k t − φ_k)`` and its bounds.
 * ``phases``: the paper's phase convention and the core's, and angle wrapping.
 * ``units``: physical units (kg·m², N·m, µm, rpm) to and from the dimensionless model.
+* ``engine``: engine speed, ω and sweeps over rpm as sweeps of Λ or j.
 
 Imports nothing else from :mod:`rattle_core`; no formatting, no colours.
 """
