@@ -171,6 +171,13 @@ def axis_label(name: str) -> str:
     return name
 
 
+def add_command(sub, name: str, help: str, description: str,
+                *parents: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """A subcommand's parser, with ``-q/--quiet`` and the shared option groups ``parents``."""
+    return sub.add_parser(name, parents=[quiet_parent(), *parents], help=help,
+                          description=description, formatter_class=argparse.HelpFormatter)
+
+
 def quiet_parent() -> argparse.ArgumentParser:
     """The ``-q/--quiet`` option every command has."""
     quiet = Parser(add_help=False)

@@ -14,7 +14,7 @@ from typing import Sequence
 from rattle_core import SolverError
 
 from .commands import COMMANDS
-from .common import CLIError, Parser, quiet_parent
+from .common import CLIError, Parser
 
 PROG = "rattle"
 
@@ -48,9 +48,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"%(prog)s {ver}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     sub.required = True
-    quiet = quiet_parent()
     for command in COMMANDS:
-        command.add_parser(sub, quiet)
+        command.add_parser(sub)
     return parser
 
 

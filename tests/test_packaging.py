@@ -14,7 +14,6 @@ import os
 import site
 import subprocess
 import sys
-import sysconfig
 import venv
 from pathlib import Path
 

@@ -6,16 +6,18 @@ import time
 
 from rattle_core.store import cache
 
+from ..common import add_command
+
 HELP = "show or clear the disk cache of sweeps and maps"
 
 
-def add_parser(sub, quiet) -> None:
-    p = sub.add_parser("cache", parents=[quiet], formatter_class=argparse.HelpFormatter, help=HELP,
-                       description="Sweeps and maps are cached on disk ($RATTLE_CACHE_DIR, else "
-                                   "$XDG_CACHE_HOME/rattle-explorer, else ~/.cache/rattle-explorer), "
-                                   "at most RATTLE_CACHE_SIZE_MB megabytes (default "
-                                   f"{cache.DEFAULT_SIZE_MB}); the least recently used entries "
-                                   "go first.")
+def add_parser(sub) -> None:
+    p = add_command(sub, "cache", HELP,
+                    "Sweeps and maps are cached on disk ($RATTLE_CACHE_DIR, else "
+                    "$XDG_CACHE_HOME/rattle-explorer, else ~/.cache/rattle-explorer), "
+                    "at most RATTLE_CACHE_SIZE_MB megabytes (default "
+                    f"{cache.DEFAULT_SIZE_MB}); the least recently used entries "
+                    "go first.")
     p.add_argument("action", choices=("show", "clear"), nargs="?", default="show",
                    help="show: location, size and entries (default); clear: delete every entry")
     p.set_defaults(func=run)

@@ -5,17 +5,17 @@ import argparse
 
 from rattle_core.paper import figures
 
-from ..common import Progress, check_output_dir, info
+from ..common import Progress, add_command, check_output_dir, info
 
 HELP = "reproduce the paper's Figures 2 to 8 into a directory"
 
 
-def add_parser(sub, quiet) -> None:
-    p = sub.add_parser("paper", parents=[quiet], formatter_class=argparse.HelpFormatter, help=HELP,
-                       description="Write pictures matching the paper's Figures 2 to 8 (bifurcation "
-                                   "diagrams, time histories, Poincaré maps) and phase_convention.md "
-                                   "into a directory.  The diagrams come from the shipped assets "
-                                   "while they match the solver.")
+def add_parser(sub) -> None:
+    p = add_command(sub, "paper", HELP,
+                    "Write pictures matching the paper's Figures 2 to 8 (bifurcation "
+                    "diagrams, time histories, Poincaré maps) and phase_convention.md "
+                    "into a directory.  The diagrams come from the shipped assets "
+                    "while they match the solver.")
     p.add_argument("--out", default="paper", metavar="DIR", help="output directory (default ./paper)")
     p.set_defaults(func=run)
 

@@ -3,14 +3,14 @@ from __future__ import annotations
 
 import argparse
 
-from ..common import CLIError, info
+from ..common import CLIError, add_command, info
 
 HELP = "serve the Panel dashboard"
 
 
-def add_parser(sub, quiet) -> None:
-    p = sub.add_parser("serve", parents=[quiet], formatter_class=argparse.HelpFormatter, help=HELP,
-                       description="Serve the Panel dashboard (every script from the local server).")
+def add_parser(sub) -> None:
+    p = add_command(sub, "serve", HELP,
+                    "Serve the Panel dashboard (every script from the local server).")
     p.add_argument("--port", type=int, default=5006, help="TCP port (default 5006)")
     p.add_argument("--address", default="localhost",
                    help="address to listen on (default localhost; 0.0.0.0 for every interface)")

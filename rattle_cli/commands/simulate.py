@@ -6,7 +6,7 @@ import argparse
 from rattle_core import classify, simulate
 from rattle_core.store.exports import TABLE_SUFFIXES, history_frame, impacts_frame, write_table
 
-from ..common import CLIError, check_output, info, label, meta, run_parent
+from ..common import CLIError, add_command, check_output, info, label, meta, run_parent
 from ..options import add_model_options, build_params
 
 HELP = "one run: impacts and time history to CSV or Parquet"
@@ -14,16 +14,15 @@ HELP = "one run: impacts and time history to CSV or Parquet"
 MAX_HISTORY_ROWS = 5_000_000
 
 
-def add_parser(sub, quiet) -> None:
-    p = sub.add_parser("simulate", parents=[quiet, run_parent(0)],
-                       formatter_class=argparse.HelpFormatter, help=HELP,
-                       description="Simulate one run exactly.  --impacts gets one row per impact "
-                                   "(t, phase, impulse, flank active/reverse, w; plus t_s and "
-                                   "impulse_Ns in physical units).  --history gets the motion sampled "
-                                   "uniformly (t, x, v, y, y_plus_j, contact none/active/reverse; "
-                                   "plus t_s, x_um, v_mps, y_um in physical units).  The format "
-                                   "follows the extension (.csv or .parquet; Parquet files carry the "
-                                   "parameters as metadata).")
+def add_parser(sub) -> None:
+    p = add_command(sub, "simulate", HELP,
+                    "Simulate one run exactly.  --impacts gets one row per impact "
+                    "(t, phase, impulse, flank active/reverse, w; plus t_s and "
+                    "impulse_Ns in physical units).  --history gets the motion sampled "
+                    "uniformly (t, x, v, y, y_plus_j, contact none/active/reverse; "
+                    "plus t_s, x_um, v_mps, y_um in physical units).  The format "
+                    "follows the extension (.csv or .parquet; Parquet files carry the "
+                    "parameters as metadata).", run_parent(0))
     add_model_options(p)
     p.add_argument("--impacts", metavar="FILE", help="write the impacts here (.csv or .parquet)")
     p.add_argument("--history", metavar="FILE", help="write the sampled time history here (.csv or .parquet)")

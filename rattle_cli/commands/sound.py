@@ -6,18 +6,17 @@ import argparse
 from rattle_core import simulate
 from rattle_core.analysis import sound
 
-from ..common import CLIError, check_output, info, label, run_parent
+from ..common import CLIError, add_command, check_output, info, label, run_parent
 from ..options import add_model_options, build_params
 
 HELP = "the rattle sound of one run, as WAV"
 
 
-def add_parser(sub, quiet) -> None:
-    p = sub.add_parser("sound", parents=[quiet, run_parent(300)],
-                       formatter_class=argparse.HelpFormatter, help=HELP,
-                       description="Synthesise the rattle: every impact rings the gearbox housing's "
-                                   "modes in proportion to its impulse (rattle_core.analysis.sound).  "
-                                   "In physical units the engine speed sets the time scale.")
+def add_parser(sub) -> None:
+    p = add_command(sub, "sound", HELP,
+                    "Synthesise the rattle: every impact rings the gearbox housing's "
+                    "modes in proportion to its impulse (rattle_core.analysis.sound).  "
+                    "In physical units the engine speed sets the time scale.", run_parent(300))
     add_model_options(p)
     a = p.add_argument_group("sound")
     a.add_argument("--out", required=True, metavar="FILE.wav", help="output WAV file (16-bit PCM, mono)")

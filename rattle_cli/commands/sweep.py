@@ -19,25 +19,25 @@ from rattle_core.store.exports import TABLE_SUFFIXES, sweep_frames, write_table
 from rattle_core.store.files import save_map, save_result
 from rattle_core.store.requests import run_map
 
-from ..common import (CLIError, Progress, axis_label, check_output, finite, info, label,
-                      user_permissions)
+from ..common import (CLIError, Progress, add_command, axis_label, check_output, finite, info,
+                      label, user_permissions)
 from ..options import add_model_options, build_params, float_list
 
 HELP = "bifurcation diagram (impulses against a parameter) to a file plus PNG"
 SWEEP_SUFFIXES = (".npz",) + TABLE_SUFFIXES
 
 
-def add_parser(sub, quiet) -> None:
-    p = sub.add_parser("sweep", parents=[quiet], formatter_class=argparse.HelpFormatter, help=HELP,
-                       description="Sweep one parameter; record every impulse after a transient.  "
-                                   "--out .npz is the cache's format (loadable by the dashboard); "
-                                   ".csv/.parquet write one row per impact to OUT and one row per "
-                                   "value (regime, period, Lyapunov exponent, intensity, ...) to "
-                                   "OUT_summary.  A PNG of the diagram goes next to OUT unless "
-                                   "--no-png.  Results are cached on disk ($RATTLE_CACHE_DIR; see 'rattle cache').  "
-                                   "One request may run up to 1e8 forcing periods (values × "
-                                   "(transient + record)), 5 to 10 minutes on two cores "
-                                   "(rattle_core.batch.sweep.PERIOD_BUDGET).")
+def add_parser(sub) -> None:
+    p = add_command(sub, "sweep", HELP,
+                    "Sweep one parameter; record every impulse after a transient.  "
+                    "--out .npz is the cache's format (loadable by the dashboard); "
+                    ".csv/.parquet write one row per impact to OUT and one row per "
+                    "value (regime, period, Lyapunov exponent, intensity, ...) to "
+                    "OUT_summary.  A PNG of the diagram goes next to OUT unless "
+                    "--no-png.  Results are cached on disk ($RATTLE_CACHE_DIR; see 'rattle cache').  "
+                    "One request may run up to 1e8 forcing periods (values × "
+                    "(transient + record)), 5 to 10 minutes on two cores "
+                    "(rattle_core.batch.sweep.PERIOD_BUDGET).")
     add_model_options(p)
     s = p.add_argument_group("sweep")
     s.add_argument("--param", default="lam",

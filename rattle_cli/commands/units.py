@@ -5,15 +5,15 @@ import argparse
 
 from rattle_core.analysis.vocabulary import physical_table
 
-from ..common import info, label
+from ..common import add_command, info, label
 from ..options import add_model_options, build_params
 
 HELP = "show physical and dimensionless parameters side by side"
 
 
-def add_parser(sub, quiet) -> None:
-    p = sub.add_parser("units", parents=[quiet], formatter_class=argparse.HelpFormatter, help=HELP,
-                       description="Convert physical inputs to Λ, j, h_k, φ_k and print both sets.")
+def add_parser(sub) -> None:
+    p = add_command(sub, "units", HELP,
+                    "Convert physical inputs to Λ, j, h_k, φ_k and print both sets.")
     add_model_options(p)
     p.set_defaults(func=run)
 

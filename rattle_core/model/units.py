@@ -52,7 +52,8 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .params import PHASE_RANGE_DEG, R_RANGE, V_STICK_RANGE, RattleParams, check_range
+from .params import (PHASE_RANGE_DEG, R_RANGE, V_STICK_RANGE, RattleParams, _as_tuple,
+                     check_range)
 from .engine import (ORDER_RANGE, RPM_RANGE, impulse_scale_from_rpm, j_from_rpm, lam_from_rpm,
                      omega_from_rpm, rpm_from_lam, rpm_from_omega, rpm_from_sweep, rpm_sweep)
 from .phases import wrap_deg
@@ -167,7 +168,7 @@ class PhysicalParams:
         if self.driver_radius is not None:
             set_(self, "driver_radius", check_range("driver_radius", self.driver_radius,
                                                     *RADIUS_RANGE, lo_open=True))
-        amps = _as_float_tuple("amplitudes", self.amplitudes)
+        amps = _as_tuple("amplitudes", self.amplitudes)
         if not amps:
             raise ValueError("amplitudes must hold at least one harmonic, got an empty list")
         rng = THETA_RANGE if self.excitation == "displacement" else ALPHA_RANGE
@@ -181,7 +182,7 @@ class PhysicalParams:
         if self.phases_deg is None:
             phases = (0.0,) * len(amps)
         else:
-            phases = _as_float_tuple("phases_deg", self.phases_deg)
+            phases = _as_tuple("phases_deg", self.phases_deg)
         if len(phases) != len(amps):
             raise ValueError(f"phases_deg has {len(phases)} entries but amplitudes has {len(amps)}; "
                              "they must have the same length")
@@ -424,17 +425,6 @@ class PhysicalParams:
 def _scale(values: Any, factor: float) -> np.ndarray | float:
     arr = np.asarray(values, dtype=np.float64) * factor
     return float(arr) if arr.ndim == 0 else arr
-
-
-def _as_float_tuple(name: str, seq: Any) -> tuple:
-    if isinstance(seq, (str, bytes)):
-        raise ValueError(f"{name} must be a sequence of numbers, got {seq!r}")
-    if np.isscalar(seq):
-        return (seq,)
-    try:
-        return tuple(seq)
-    except TypeError:
-        raise ValueError(f"{name} must be a sequence of numbers, got {seq!r}") from None
 
 
 def example() -> PhysicalParams:
