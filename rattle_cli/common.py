@@ -11,7 +11,7 @@ import os
 import sys
 import tempfile
 from pathlib import Path
-from typing import Any, NoReturn, Sequence
+from typing import Any, Callable, NoReturn, Sequence
 
 
 class CLIError(Exception):
@@ -171,11 +171,16 @@ def axis_label(name: str) -> str:
     return name
 
 
-def add_command(sub, name: str, help: str, description: str,
+def add_command(sub, run: Callable[[argparse.Namespace], int], help: str,
                 *parents: argparse.ArgumentParser) -> argparse.ArgumentParser:
-    """A subcommand's parser, with ``-q/--quiet`` and the shared option groups ``parents``."""
-    return sub.add_parser(name, parents=[quiet_parent(), *parents], help=help,
-                          description=description, formatter_class=argparse.HelpFormatter)
+    """The parser of the subcommand that ``run`` carries out: named after its module, described
+    by its docstring, with ``-q/--quiet`` and the shared option groups ``parents``."""
+    name = run.__module__.rsplit(".", 1)[-1]
+    p = sub.add_parser(name, parents=[quiet_parent(), *parents], help=help,
+                       description=" ".join((run.__doc__ or help).split()),
+                       formatter_class=argparse.HelpFormatter)
+    p.set_defaults(func=run)
+    return p
 
 
 def quiet_parent() -> argparse.ArgumentParser:

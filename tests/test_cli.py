@@ -431,6 +431,9 @@ def test_cache_command_shows_and_clears(tmp_path, capsys, monkeypatch):
     assert list(cache_dir.glob("*.npz")) == []
     code, out, _ = run(["cache"], capsys)
     assert code == 0 and "0 entries" in out
+    from rattle_core.store.cache import DEFAULT_SIZE_MB
+    code, out, _ = run(["cache", "--help"], capsys)
+    assert code == 0 and f"(default {DEFAULT_SIZE_MB})" in " ".join(out.split())
 
 
 def test_solver_limit_exits_1_with_one_line(monkeypatch, capsys, tmp_path):

@@ -12,15 +12,9 @@ HELP = "show or clear the disk cache of sweeps and maps"
 
 
 def add_parser(sub) -> None:
-    p = add_command(sub, "cache", HELP,
-                    "Sweeps and maps are cached on disk ($RATTLE_CACHE_DIR, else "
-                    "$XDG_CACHE_HOME/rattle-explorer, else ~/.cache/rattle-explorer), "
-                    "at most RATTLE_CACHE_SIZE_MB megabytes (default "
-                    f"{cache.DEFAULT_SIZE_MB}); the least recently used entries "
-                    "go first.")
+    p = add_command(sub, run, HELP)
     p.add_argument("action", choices=("show", "clear"), nargs="?", default="show",
                    help="show: location, size and entries (default); clear: delete every entry")
-    p.set_defaults(func=run)
 
 
 def _mb(n: int) -> str:
@@ -28,7 +22,9 @@ def _mb(n: int) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Show or clear the cache."""
+    """Sweeps and maps are cached on disk ($RATTLE_CACHE_DIR, else $XDG_CACHE_HOME/rattle-explorer,
+    else ~/.cache/rattle-explorer), at most RATTLE_CACHE_SIZE_MB megabytes (default
+    1024); the least recently used entries go first."""
     folder = cache.cache_dir()
     if args.action == "clear":
         n, freed = cache.clear(folder)

@@ -11,17 +11,14 @@ HELP = "reproduce the paper's Figures 2 to 8 into a directory"
 
 
 def add_parser(sub) -> None:
-    p = add_command(sub, "paper", HELP,
-                    "Write pictures matching the paper's Figures 2 to 8 (bifurcation "
-                    "diagrams, time histories, Poincaré maps) and phase_convention.md "
-                    "into a directory.  The diagrams come from the shipped assets "
-                    "while they match the solver.")
+    p = add_command(sub, run, HELP)
     p.add_argument("--out", default="paper", metavar="DIR", help="output directory (default ./paper)")
-    p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Write the paper's Figures 2 to 8 into a directory."""
+    """Write pictures matching the paper's Figures 2 to 8 (bifurcation diagrams, time histories,
+    Poincaré maps) and phase_convention.md into a directory.  The diagrams come from the
+    shipped assets while they match the solver."""
     out = check_output_dir(args.out, "--out")
     out.mkdir(exist_ok=True)
     progress = Progress("paper figures", enabled=not args.quiet, unit="%")

@@ -9,8 +9,7 @@ HELP = "serve the Panel dashboard"
 
 
 def add_parser(sub) -> None:
-    p = add_command(sub, "serve", HELP,
-                    "Serve the Panel dashboard (every script from the local server).")
+    p = add_command(sub, run, HELP)
     p.add_argument("--port", type=int, default=5006, help="TCP port (default 5006)")
     p.add_argument("--address", default="localhost",
                    help="address to listen on (default localhost; 0.0.0.0 for every interface)")
@@ -22,11 +21,10 @@ def add_parser(sub) -> None:
                    help="run the dashboard's maps on this Dask scheduler")
     d.add_argument("--dask", choices=("local",),
                    help="'local': run them on a 2-worker Dask LocalCluster started by the server")
-    p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Serve the Panel dashboard until Ctrl+C."""
+    """Serve the Panel dashboard (every script from the local server)."""
     if not 1 <= args.port <= 65535:
         raise CLIError(f"--port {args.port} is outside the allowed range [1, 65535]")
     if args.scheduler is not None and args.dask is not None:

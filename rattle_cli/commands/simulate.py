@@ -15,24 +15,20 @@ MAX_HISTORY_ROWS = 5_000_000
 
 
 def add_parser(sub) -> None:
-    p = add_command(sub, "simulate", HELP,
-                    "Simulate one run exactly.  --impacts gets one row per impact "
-                    "(t, phase, impulse, flank active/reverse, w; plus t_s and "
-                    "impulse_Ns in physical units).  --history gets the motion sampled "
-                    "uniformly (t, x, v, y, y_plus_j, contact none/active/reverse; "
-                    "plus t_s, x_um, v_mps, y_um in physical units).  The format "
-                    "follows the extension (.csv or .parquet; Parquet files carry the "
-                    "parameters as metadata).", run_parent(0))
+    p = add_command(sub, run, HELP, run_parent(0))
     add_model_options(p)
     p.add_argument("--impacts", metavar="FILE", help="write the impacts here (.csv or .parquet)")
     p.add_argument("--history", metavar="FILE", help="write the sampled time history here (.csv or .parquet)")
     p.add_argument("--samples-per-period", dest="samples_per_period", type=int, default=64,
                    help="time-history samples per forcing period (default 64)")
-    p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Simulate once; write the impacts and a sampled time history."""
+    """Simulate one run exactly.  --impacts gets one row per impact (t, phase, impulse, flank
+    active/reverse, w; plus t_s and impulse_Ns in physical units).  --history gets the
+    motion sampled uniformly (t, x, v, y, y_plus_j, contact none/active/reverse; plus t_s,
+    x_um, v_mps, y_um in physical units).  The format follows the extension (.csv or
+    .parquet; Parquet files carry the parameters as metadata)."""
     if args.impacts is None and args.history is None:
         raise CLIError("simulate: give --impacts FILE and/or --history FILE (.csv or .parquet)")
     imp_path = check_output(args.impacts, TABLE_SUFFIXES, "--impacts") if args.impacts is not None else None

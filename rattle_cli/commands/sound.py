@@ -13,10 +13,7 @@ HELP = "the rattle sound of one run, as WAV"
 
 
 def add_parser(sub) -> None:
-    p = add_command(sub, "sound", HELP,
-                    "Synthesise the rattle: every impact rings the gearbox housing's "
-                    "modes in proportion to its impulse (rattle_core.analysis.sound).  "
-                    "In physical units the engine speed sets the time scale.", run_parent(300))
+    p = add_command(sub, run, HELP, run_parent(300))
     add_model_options(p)
     a = p.add_argument_group("sound")
     a.add_argument("--out", required=True, metavar="FILE.wav", help="output WAV file (16-bit PCM, mono)")
@@ -29,11 +26,12 @@ def add_parser(sub) -> None:
     a.add_argument("--tail", type=float, default=0.15, help="ring-out after the run [s] (default 0.15)")
     a.add_argument("--polarity", choices=("signed", "absolute"), default="signed",
                    help="impulse strength Ĩ (polarity flips with the flank) or |Ĩ| (default signed)")
-    p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Synthesise the rattle sound of one run and write it as WAV."""
+    """Synthesise the rattle: every impact rings the gearbox housing's modes in proportion to its
+    impulse (rattle_core.analysis.sound).  In physical units the engine speed sets the time
+    scale."""
     out = check_output(args.out, (".wav",), "--out")
     params, phys = build_params(args)
     if phys is not None and args.excitation_hz is not None:

@@ -28,16 +28,7 @@ SWEEP_SUFFIXES = (".npz",) + TABLE_SUFFIXES
 
 
 def add_parser(sub) -> None:
-    p = add_command(sub, "sweep", HELP,
-                    "Sweep one parameter; record every impulse after a transient.  "
-                    "--out .npz is the cache's format (loadable by the dashboard); "
-                    ".csv/.parquet write one row per impact to OUT and one row per "
-                    "value (regime, period, Lyapunov exponent, intensity, ...) to "
-                    "OUT_summary.  A PNG of the diagram goes next to OUT unless "
-                    "--no-png.  Results are cached on disk ($RATTLE_CACHE_DIR; see 'rattle cache').  "
-                    "One request may run up to 1e8 forcing periods (values × "
-                    "(transient + record)), 5 to 10 minutes on two cores "
-                    "(rattle_core.batch.sweep.PERIOD_BUDGET).")
+    p = add_command(sub, run, HELP)
     add_model_options(p)
     s = p.add_argument_group("sweep")
     s.add_argument("--param", default="lam",
@@ -81,7 +72,6 @@ def add_parser(sub) -> None:
     d.add_argument("--dask", metavar="local", help="'local': run on a Dask LocalCluster started here")
     d.add_argument("--workers", type=int, default=2, help="workers of --dask local (default 2)")
     d.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on this Dask scheduler")
-    p.set_defaults(func=run)
 
 
 def _values(args: argparse.Namespace, suffix: str = "", default_num: int = 200) -> np.ndarray:
@@ -133,7 +123,13 @@ def _run_on(args: argparse.Namespace, scheduler: str | None, job) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    """A bifurcation diagram: impulses against one parameter, to a file plus a PNG."""
+    """Sweep one parameter; record every impulse after a transient.  --out .npz is the cache's
+    format (loadable by the dashboard); .csv/.parquet write one row per impact to OUT and
+    one row per value (regime, period, Lyapunov exponent, intensity, ...) to OUT_summary.  A
+    PNG of the diagram goes next to OUT unless --no-png.  Results are cached on disk
+    ($RATTLE_CACHE_DIR; see 'rattle cache').  One request may run up to 1e8 forcing periods
+    (values × (transient + record)), 5 to 10 minutes on two cores
+    (rattle_core.batch.sweep.PERIOD_BUDGET)."""
     out = check_output(args.out, SWEEP_SUFFIXES, "--out")
     png = None
     if not args.no_png:

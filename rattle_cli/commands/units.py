@@ -12,14 +12,12 @@ HELP = "show physical and dimensionless parameters side by side"
 
 
 def add_parser(sub) -> None:
-    p = add_command(sub, "units", HELP,
-                    "Convert physical inputs to Λ, j, h_k, φ_k and print both sets.")
+    p = add_command(sub, run, HELP)
     add_model_options(p)
-    p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Print the physical and dimensionless parameters side by side."""
+    """Convert physical inputs to Λ, j, h_k, φ_k and print both sets."""
     params, phys = build_params(args)
     if phys is None:
         info(args, f"dimensionless: {label(params, phys)}, v_stick = {params.v_stick:g}")
