@@ -259,12 +259,13 @@ def _release_time(lam, h, phi, sigma, t, t_end, ds):
     def react(tt):
         return sigma * (1.0 + lam * y_derivative(tt, h, phi, 2))
 
-    grid = np.arange(t + ds, t_end + ds, ds)
-    grid = np.minimum(grid, t_end) if len(grid) else np.array([t_end])
     chunk = 4096
     lo_prev = t
-    for start in range(0, len(grid), chunk):
-        tg = grid[start:start + chunk]
+    n_pts = max(1, int(np.ceil((t_end - t) / ds)))
+    # the grid t + ds, t + 2 ds, ... (clipped at t_end) is built a chunk at a time: a stick
+    # phase rarely lasts long, and the whole grid of a long run costs more than the run
+    for start in range(0, n_pts, chunk):
+        tg = np.minimum(t + ds * np.arange(start + 1, min(start + chunk, n_pts) + 1), t_end)
         vals = react(tg)
         bad = vals <= 0.0
         if np.any(bad):
