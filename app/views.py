@@ -220,12 +220,25 @@ def badge_html(cls) -> str:
     period = f"period {cls.period}" if cls.period else "no period ≤ 32"
     chaos = "chaotic" if cls.chaotic else "not chaotic"
     label = html.escape(cls.label)
-    return (f'<div class="rattle-badge" data-regime="{cls.regime}" style="display:flex;gap:12px;'
-            f'align-items:center">'
+    sticking = getattr(cls, "sticking", "")
+    kind = STICKING_TEXT.get((sticking, bool(getattr(cls, "noisy", False))), "")
+    if sticking == "stick-locked" and math.isfinite(getattr(cls, "loop_amplification", math.nan)):
+        kind += f", loop amplification 10^{cls.loop_amplification:.1f}"
+    kind_html = f' · <span class="sticking-kind">{html.escape(kind)}</span>' if kind else ""
+    return (f'<div class="rattle-badge" data-regime="{cls.regime}" data-sticking="{sticking}" '
+            f'style="display:flex;gap:12px;align-items:center">'
             f'<span style="background:{color};color:white;font-size:28px;font-weight:bold;'
             f'border-radius:8px;padding:4px 14px">{cls.regime}</span>'
-            f'<span><b>{period}</b> · {chaos} · Lyapunov λ = {lyap_txt}<br>'
+            f'<span><b>{period}</b> · {chaos} · Lyapunov λ = {lyap_txt}{kind_html}<br>'
             f'<span style="color:#555">{label}</span></span></div>')
+
+
+#: What the badge says of motion through sticking: (sticking kind, noisy) → text.
+STICKING_TEXT = {
+    ("stick-locked", False): "stick-locked, exact",
+    ("chaos-through-sticking", True): "chaos through sticking, vanishing-noise statistics",
+    ("chaos-through-sticking", False): "loop chosen by rounding: not resolvable (noise off)",
+}
 
 
 def metrics_html(cls, tr: Trajectory) -> str:

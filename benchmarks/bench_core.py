@@ -12,6 +12,9 @@ Prints, for regime E (Λ = 3.3, harmonic) and two chaotic cases:
 * the limits, each against a plain run of the same length as its baseline: a chatter that
   ends in a stick phase (20 periods), the reaction touching zero at Λ ≈ 1 (400 periods), and a
   runaway stopped by ``max_impacts_per_period = 5`` (the time until ``SolverError``);
+* the cost of the vanishing-noise mechanism (release-to-capture amplification and release
+  kicks): impacts/s of the event loop with it (``noise=True`` and strict) against the loop of
+  the last commit without it, loaded from git in the same run; target ≤ 5 % slower;
 * the cold start (a fresh interpreter: import plus first ``simulate`` with an empty numba cache)
   and the warm start (the same, with the cache filled).
 
@@ -241,6 +244,80 @@ def run_start(quick: bool) -> None:
               f"target ≤ {TARGET_WARM_S:g} s → {verdict(total_w <= TARGET_WARM_S)}")
 
 
+#: The last commit before the vanishing-noise mechanism (docs/model.md, "Sticking erases the
+#: past"): its event loop is the baseline of the mechanism's cost.
+PRE_NOISE_COMMIT = "f4e1583"
+TARGET_NOISE_SLOWDOWN = 0.05
+
+
+def load_pre_noise_solver():
+    """The event loop as it was before the mechanism, from git, as a private package."""
+    tmp = Path(tempfile.mkdtemp(prefix="rattle-pre-noise-")) / "rattle_pre_noise"
+    tmp.mkdir()
+    for name in ("solver", "events", "excitation"):
+        src = subprocess.run(["git", "show", f"{PRE_NOISE_COMMIT}:rattle_core/{name}.py"],
+                             cwd=ROOT, capture_output=True, text=True, check=True).stdout
+        (tmp / f"{name}.py").write_text(src)
+    (tmp / "__init__.py").write_text("")
+    sys.path.insert(0, str(tmp.parent))
+    import rattle_pre_noise.solver as old
+    return old
+
+
+def _kernel_rates(runs: dict, p: RattleParams, periods: int, repeats: int) -> dict:
+    """Best impacts/s of bare ``_integrate`` calls (no segments) from mid-backlash, for each
+    ``label → (integrate, extra arguments)``; the variants take turns, so a change in the
+    machine's load touches them alike."""
+    cap = 8 * periods + 64
+    x0 = float(p.j / 2 + np.sum(p.h * np.cos(-p.phi)))
+    best = {k: np.inf for k in runs}
+    count = {}
+    for rep in range(repeats + 1):  # the first round compiles or loads the cache
+        for label, (integrate, extra) in runs.items():
+            arrays = (np.empty(cap), np.empty(cap), np.empty(cap), np.empty(cap),
+                      np.empty(cap, np.int8), np.empty(0), np.empty(0, np.int8), np.empty(0),
+                      np.empty(0), np.empty(periods), np.empty(periods))
+            tic = time.perf_counter()
+            out = integrate(p.lam, p.r, p.j, p.h, p.phi, p.v_stick, 0, 0.0, x0, 0.0, periods, 0,
+                            0.0, 100_000, False, *extra, *arrays)
+            dt = time.perf_counter() - tic
+            if rep:
+                best[label] = min(best[label], dt)
+            count[label] = out[1]
+    return {k: count[k] / best[k] for k in runs}
+
+
+def run_noise_cost(quick: bool) -> None:
+    """Impacts/s with the mechanism (noise on, and strict) against the loop without it."""
+    from rattle_core.solver import kernel as solver
+    print("\n== Cost of the vanishing-noise mechanism: impacts/s of the event loop, one core")
+    try:
+        old = load_pre_noise_solver()
+    except (subprocess.CalledProcessError, FileNotFoundError) as err:
+        print(f"   baseline unavailable (needs the git history, commit {PRE_NOISE_COMMIT}): {err}")
+        return
+    periods = 20_000 if quick else 100_000
+    repeats = 3 if quick else 7
+    cases = dict(CASES, **{"B: harmonic, Λ = 1.05 (stick-locked, chatter every period)":
+                           RattleParams(lam=1.05)})
+    worst = 0.0
+    for name, p in cases.items():
+        rates = _kernel_rates({"without": (old._integrate, ()),
+                               "strict": (solver._integrate, (False,)),
+                               "noise": (solver._integrate, (True,))}, p, periods, repeats)
+        base, strict, noisy = rates["without"], rates["strict"], rates["noise"]
+        # noise=False follows the same trajectory as the loop without the mechanism and pays
+        # all of its bookkeeping; noise=True leaves that trajectory at its first kick
+        slow = 1.0 - strict / base
+        worst = max(worst, slow)
+        print(f"-- {name}\n   without (commit {PRE_NOISE_COMMIT}): {base:10.4g}   "
+              f"with, noise=False (same trajectory): {strict:10.4g} ({strict / base:.3f}×)   "
+              f"with, noise=True: {noisy:10.4g} ({noisy / base:.3f}×)")
+    print(f"   largest slowdown on the same trajectory {100 * worst:.1f} %; target ≤ "
+          f"{100 * TARGET_NOISE_SLOWDOWN:.0f} % → {verdict(worst <= TARGET_NOISE_SLOWDOWN)} "
+          f"(best of {repeats}, variants taking turns)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="fewer periods and repeats")
@@ -251,6 +328,7 @@ def main() -> None:
           f"{os.cpu_count()} CPUs visible")
     run_cases(args.quick)
     run_limits(args.quick)
+    run_noise_cost(args.quick)
     if not args.skip_start:
         run_start(args.quick)
 

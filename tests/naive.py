@@ -95,8 +95,10 @@ def _first_scan_point(u, g2, g3, m2, m3, m4, ds):
     return min(ds, max(cands))
 
 
-def _scan_grid(s1, ds, smax):
-    """Grid from ``s1``: steps grow geometrically (×1.25) up to ``ds``, then stay at ``ds``."""
+def _scan_grid(s1, ds, smax, chunk=4096):
+    """Grid from ``s1`` in chunks: steps grow geometrically (×1.25) up to ``ds``, then stay at
+    ``ds``; the last point is ``smax``.  Chunks are made as the scan needs them, since a flight
+    is usually short and ``smax`` is the rest of the run."""
     pts = [s1]
     while pts[-1] < smax:
         step = min(ds, max(s1, 0.25 * pts[-1]))
@@ -104,9 +106,16 @@ def _scan_grid(s1, ds, smax):
             break
         pts.append(pts[-1] + step)
     head = np.array(pts)
-    tail = np.arange(head[-1] + ds, smax, ds)
-    grid = np.concatenate([head, tail, [smax]])
-    return grid[grid <= smax]
+    yield head[head <= smax]
+    base = head[-1] + ds
+    for k0 in range(0, 1 << 62, chunk):
+        tail = base + ds * np.arange(k0, k0 + chunk)
+        tail = tail[tail < smax]
+        if len(tail):
+            yield tail
+        if len(tail) < chunk:
+            break
+    yield np.array([smax])
 
 
 def naive_simulate(lam, r, j, h, phi, v_stick, t0, x0, v0, t_end, ds=TWO_PI / 1000,
@@ -228,22 +237,20 @@ def _flight(lam, j, h, phi, t, x, v, smax, wall, u, g2, g3, m2, m3, m4, ds):
     s1 = ds if wall == 0 else _first_scan_point(u, g2, g3, m2, m3, m4, ds)
     if s1 >= smax:
         s1 = smax
-    grid = _scan_grid(s1, ds, smax)
     ga0, gr0 = gaps(np.array([0.0]))
     if wall == 0 and (ga0[0] <= 0.0 or gr0[0] <= 0.0):
         raise ReferenceError_("flight starts on a wall without a leaving state")
-    ga1, gr1 = gaps(grid[:1])
+    ga1, gr1 = gaps(np.array([s1]))
     if ga1[0] <= 0.0 or gr1[0] <= 0.0:
         raise ReferenceError_(f"gap not positive at the first scan point s1={s1!r} "
                               f"(g_a={ga1[0]!r}, g_r={gr1[0]!r})")
-    chunk = 4096
-    for start in range(0, len(grid), chunk):
-        sg = grid[start:start + chunk]
+    prev = s1
+    for sg in _scan_grid(s1, ds, smax):
         ga, gr = gaps(sg)
         bad = (ga <= 0.0) | (gr <= 0.0)
         if np.any(bad):
-            i = start + int(np.argmax(bad))
-            lo, hi = grid[i - 1], grid[i]
+            i = int(np.argmax(bad))
+            lo, hi = (sg[i - 1] if i > 0 else prev), sg[i]
             roots = []
             for sgn, which in ((1, 0), (-1, 1)):
                 f = (lambda s, w=which: float(gaps(np.array([s]))[w][0]))
@@ -252,6 +259,7 @@ def _flight(lam, j, h, phi, t, x, v, smax, wall, u, g2, g3, m2, m3, m4, ds):
                     roots.append((root, sgn))
             roots.sort()
             return roots[0]
+        prev = sg[-1]
     return smax, 0
 
 
@@ -260,12 +268,13 @@ def _release_time(lam, h, phi, sigma, t, t_end, ds):
     def react(tt):
         return sigma * (1.0 + lam * y_derivative(tt, h, phi, 2))
 
-    grid = np.arange(t + ds, t_end + ds, ds)
-    grid = np.minimum(grid, t_end) if len(grid) else np.array([t_end])
     chunk = 4096
     lo_prev = t
-    for start in range(0, len(grid), chunk):
-        tg = grid[start:start + chunk]
+    n_pts = max(1, int(np.ceil((t_end - t) / ds)))
+    # the grid t + ds, t + 2 ds, ... (clipped at t_end) is built a chunk at a time: a stick
+    # phase rarely lasts long, and the whole grid of a long run costs more than the run
+    for start in range(0, n_pts, chunk):
+        tg = np.minimum(t + ds * np.arange(start + 1, min(start + chunk, n_pts) + 1), t_end)
         vals = react(tg)
         bad = vals <= 0.0
         if np.any(bad):

@@ -131,6 +131,21 @@ def test_badge_and_metrics_describe_the_classification(tr_e):
     assert "rattle intensity" in table and "<script" not in table
 
 
+@pytest.mark.parametrize("params, noise, sticking, text", [
+    (RattleParams(lam=1.05), True, "stick-locked", "stick-locked, exact, loop amplification 10^"),
+    (RattleParams.paper(lam=3.3, amplitudes=(1.0, 0.25), phases_deg=(0.0, 45.0)), True,
+     "chaos-through-sticking", "chaos through sticking, vanishing-noise statistics"),
+    (RattleParams.paper(lam=3.3, amplitudes=(1.0, 0.25), phases_deg=(0.0, 45.0)), False,
+     "chaos-through-sticking", "loop chosen by rounding: not resolvable (noise off)"),
+])
+def test_badge_says_which_kind_of_answer_motion_through_sticking_is(params, noise, sticking, text):
+    """The badge tells a robust stick-locked orbit (exact) from chaos through sticking
+    (vanishing-noise statistics) and from a strict run whose loop rounding chose."""
+    cls = classify(simulate(params, periods=3000, transient=500, lyapunov=True, noise=noise))
+    html = views.badge_html(cls)
+    assert f'data-sticking="{sticking}"' in html and text in html
+
+
 def test_impacts_csv_round_trips_exactly(tr_e):
     """The CSV export holds every impact with full float precision."""
     df = pd.read_csv(io.StringIO(views.impacts_csv(tr_e)))

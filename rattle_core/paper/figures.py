@@ -59,6 +59,8 @@ def short_label(c) -> str:
     line2 = f"{c.active_per_period:.3g} active + {c.reverse_per_period:.3g} reverse impacts/period"
     if c.stick_fraction > 0:
         line2 += f", sticking {100 * c.stick_fraction:.2g}%"
+    if c.sticking == "chaos-through-sticking":
+        line2 += ", chaos through sticking" + (" (vanishing noise)" if c.noisy else "")
     # with sticking in every period the exponent says nothing about the flight dynamics
     if not math.isnan(c.lyapunov) and c.regime not in ("A", "B"):
         line2 += f", λ = {c.lyapunov:.3g}"

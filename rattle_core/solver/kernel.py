@@ -113,6 +113,7 @@ def _flight(lam, j, h, cphi, sphi, m2, m3, m4, tau0, x0, v0, smax, leave):
     """
     inv_lam = 1.0 / lam
     s = 0.0
+    s_prev = 0.0
     if leave != 0:
         y0, y1, y2, y3, y4 = _y_derivs(tau0, h, cphi, sphi)
         g2 = leave * (-inv_lam - y2)
@@ -148,10 +149,12 @@ def _flight(lam, j, h, cphi, sphi, m2, m3, m4, tau0, x0, v0, smax, leave):
             hit = -1
             delta = gr / ga1 if ga1 > 1e-7 else 0.0
         if hit != 0:
-            if s + delta < 0.0:
-                # a start just inside the wall while closing: the contact is at the start,
-                # never before it (time must not run backwards)
-                delta = -s
+            if (ga1 + ga2 * delta) * hit > 0.0 or s + delta < s_prev:
+                # the one-step polish is kept only if the gear still moves into the wall at
+                # the polished time and that time is not before the last point known clear of
+                # the wall (a gap curving away, a start a rounding inside the wall): otherwise
+                # the contact stays where the gap was found closed, and time never runs back
+                delta = 0.0
             return (s + delta, hit, y0 + y1 * delta, y1 + y2 * delta, y2 + y3 * delta,
                     y3 + y4 * delta, y4)
         gap_a = ga if ga > 0.0 else 0.0
@@ -174,6 +177,7 @@ def _flight(lam, j, h, cphi, sphi, m2, m3, m4, tau0, x0, v0, smax, leave):
             d = MIN_STEP
         if s + d >= smax:
             return smax, 0, 0.0, 0.0, 0.0, 0.0, 0.0
+        s_prev = s
         s += d
     return s, 2, 0.0, 0.0, 0.0, 0.0, 0.0
 
