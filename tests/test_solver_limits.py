@@ -65,7 +65,7 @@ def test_invariants_hold_over_the_whole_accepted_range(case):
     t = np.linspace(tr.t_start, tr.t_end, 4001)
     x, _ = tr.sample(t)
     y = y_derivative(t, p.h, p.phi)
-    # positions are O(j + Σ h_k): allow their rounding, as the 1e-9 of MODEL.md does for O(1)
+    # positions are O(j + Σ h_k): allow their rounding, as the 1e-9 of docs/model.md does for O(1)
     tol = 1e-9 * (1.0 + p.j + float(np.sum(p.h)))
     assert np.min(x - y) >= -tol and np.max(x - y - p.j) <= tol
 
