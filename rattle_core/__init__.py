@@ -1,13 +1,14 @@
 """Rattle Explorer's computational core: exact event-driven gear-rattle dynamics.
 
-Layers, each importing only those listed before it (``docs/model.md`` is the specification)::
+Layers, each importing only those listed before it (``docs/model.md`` is the specification;
+``tests/test_layers.py`` enforces the order)::
 
-    model     params, excitation, units
+    model     params, excitation, phases, units, engine
     solver    events, kernel, trajectory
-    analysis  sections, classify, sound
-    batch     sweep, maps
-    store     cache
-    paper     cases
+    analysis  sections, classify, overlays, vocabulary, sound
+    batch     chunks, executor, sweep, maps, plan
+    store     files, cache, assets, requests, exports
+    paper     cases, figures, evidence, drawing
 
 The names below are the public entry points, importable from ``rattle_core`` itself.
 """
