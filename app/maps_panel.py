@@ -42,9 +42,10 @@ from bokeh.palettes import Category20, Magma256, Viridis256
 from bokeh.plotting import figure
 
 from rattle_core.analysis.vocabulary import REGIME_CODES, REGIME_COLOURS, REGIME_MEANING
-from rattle_core.batch import plan as maps
 from rattle_core.batch.executor import check_scheduler
 from rattle_core.batch.executor import shared_client as dask_client
+from rattle_core.batch.plan import PHYSICAL_AXES as MAP_PHYSICAL_AXES
+from rattle_core.batch.plan import plan_map, point_params
 from rattle_core.model.excitation import excitation
 from rattle_core.store.requests import run_map
 
@@ -426,7 +427,7 @@ class MapsPanel(FeaturePanel):
         phys = self._physical()
         x_name, y_name = self.x_axis.value, self.y_axis.value
         try:
-            plan = maps.plan_map(params, phys, x_name, xv, y_name, yv)
+            plan = plan_map(params, phys, x_name, xv, y_name, yv)
         except ValueError as exc:
             text = str(exc)
             self._show("y" if text.startswith("y axis") else "x" if text.startswith("x axis")
@@ -629,8 +630,8 @@ class MapsPanel(FeaturePanel):
             elif self._units_on():
                 # the physical inputs take the clicked values; Λ, j follow from them
                 point = {n: v for n, v in zip(names, (xv, yv))}
-                changes = {maps.PHYSICAL_AXES[n][0]: point[n] * maps.PHYSICAL_AXES[n][1]
-                           for n in names if n in maps.PHYSICAL_AXES}
+                changes = {MAP_PHYSICAL_AXES[n][0]: point[n] * MAP_PHYSICAL_AXES[n][1]
+                           for n in names if n in MAP_PHYSICAL_AXES}
                 msg = self._units_panel().set_physical(**changes)
                 if msg:
                     self._show("run", msg)
@@ -638,7 +639,7 @@ class MapsPanel(FeaturePanel):
                 values = {n: round(point[n], 10) for n in names if n in DIMENSIONLESS_AXES}
             else:
                 phys = self._request["phys"] if self._request else None
-                p = maps.point_params(r.params, phys, names, (xv, yv))
+                p = point_params(r.params, phys, names, (xv, yv))
                 current = self.dashboard.params
                 values = {n: float(f"{p.get(n):.10g}") for n in ("lam", "j")
                           if p.get(n) != current.get(n)}

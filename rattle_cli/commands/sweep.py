@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 from pathlib import Path
 from typing import Any
@@ -110,16 +111,13 @@ def _scheduler(args: argparse.Namespace) -> str | None:
 
 def _run_on(args: argparse.Namespace, scheduler: str | None, job) -> Any:
     """``job(executor)`` on the Dask cluster asked for (or here), closing it afterwards."""
-    session = dask_session(scheduler, args.workers)
-    try:
-        executor = session.__enter__()
-    except (ConnectionError, ValueError) as exc:
-        where = f"--scheduler {args.scheduler!r}" if args.scheduler else "--dask local"
-        raise CLIError(f"{where}: {exc}") from None
-    try:
+    with contextlib.ExitStack() as stack:
+        try:
+            executor = stack.enter_context(dask_session(scheduler, args.workers))
+        except (ConnectionError, ValueError) as exc:
+            where = f"--scheduler {args.scheduler!r}" if args.scheduler else "--dask local"
+            raise CLIError(f"{where}: {exc}") from None
         return job(executor)
-    finally:
-        session.__exit__(None, None, None)
 
 
 def run(args: argparse.Namespace) -> int:
