@@ -1035,3 +1035,987 @@ def orbit_from_trajectory(tr, period: int) -> PeriodicOrbit:
         raise ContinuationError(f"Newton's method moved away from the simulated orbit at {p} "
                                 "(the response may not be settled yet)")
     return orb
+
+
+# ----- results -------------------------------------------------------------------------------
+
+BIFURCATION_KINDS = {
+    "fold": "fold: a multiplier crosses +1 and the branch turns back",
+    "period_doubling": "period doubling: a multiplier crosses −1",
+    "neimark_sacker": "Neimark–Sacker: a complex pair crosses the unit circle",
+    "grazing": "grazing: a flight touches a wall, the orbit gains or loses an impact",
+    "stick_onset": "onset of sticking: an impact on a pushing wall becomes slower than v_stick",
+    "stick_end": "end of sticking: the stick phase shrinks to nothing",
+    "sequence_change": "the impact sequence of an orbit that sticks changes",
+}
+#: Bifurcations after which the branch cannot go on with the same impact sequence.
+TERMINAL = ("grazing", "stick_onset", "stick_end", "sequence_change")
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Bifurcation:
+    """A bifurcation located on a branch.
+
+    Attributes
+    ----------
+    kind : str
+        One of :data:`BIFURCATION_KINDS`.
+    param : str
+        The continued parameter.
+    value : float
+        Where, in the parameter's units (degrees for phases, rpm, N·m).
+    point : int
+        Index of the last branch point before it.
+    orbit : PeriodicOrbit
+        The orbit at the bifurcation.
+    detail : dict
+        Kind-specific facts: the flight and wall of a grazing, the critical multiplier, ...
+    message : str
+        One line for people.
+    """
+
+    kind: str
+    param: str
+    value: float
+    point: int
+    orbit: PeriodicOrbit
+    detail: dict
+    message: str
+    q: float = math.nan
+    _restart: Any = None
+
+    @property
+    def multipliers(self) -> np.ndarray:
+        return self.orbit.multipliers
+
+    @property
+    def can_restart(self) -> bool:
+        """Whether :func:`continue_orbit` can start a new branch here (``start=bifurcation``)."""
+        return self.kind in ("period_doubling", "grazing", "stick_onset", "stick_end",
+                             "sequence_change", "fold")
+
+    def as_dict(self) -> dict:
+        mu = self.orbit.multipliers
+        d = {"kind": self.kind, "param": self.param, "value": self.value, "point": self.point,
+             "period": self.orbit.period, "n_impacts": self.orbit.n_impacts,
+             "mu1_re": float(mu[0].real), "mu1_im": float(mu[0].imag),
+             "mu2_re": float(mu[1].real) if len(mu) > 1 else math.nan,
+             "mu2_im": float(mu[1].imag) if len(mu) > 1 else math.nan,
+             "message": self.message}
+        for k, v in self.detail.items():
+            if isinstance(v, (int, float, str, bool, np.integer, np.floating)):
+                d[k] = v
+        return d
+
+
+@dataclasses.dataclass(eq=False)
+class ContinuationResult:
+    """A continued branch.
+
+    Attributes
+    ----------
+    param : str
+        The continued parameter.
+    points : DataFrame
+        One row per branch point: ``point``, ``value`` (the parameter, in its units), ``q``
+        (the dimensionless value the equations use: Λ, r, j, h_K, φ_K in radians), ``kind``
+        (``impact`` or ``stick``), ``period``, ``n_impacts``, ``n_active``, ``n_reverse``,
+        ``stable``, the multipliers ``mu1_re, mu1_im, mu2_re, mu2_im`` and ``mu_max`` (largest
+        modulus), ``impulse_max``/``impulse_min`` (signed extremes), ``stick_time``,
+        ``gap_min`` (grazing test), ``w_min`` (slowest impact), ``event`` (the bifurcation at
+        that point, if any).
+    impacts : DataFrame
+        One row per impact per point: ``point``, ``value``, ``impact``, ``t``, ``phase``,
+        ``u``, ``w``, ``impulse``, ``flank``, ``stable``: the branch drawn on a bifurcation
+        diagram.
+    bifurcations : list of Bifurcation
+    status : str
+        Why it stopped: ``bound``, ``max_points``, ``grazing``, ``stick_onset``, ``stick_end``,
+        ``sequence_change``, ``step_too_small``, ``cancelled``, ``closed`` (the branch came
+        back to its start).
+    message : str
+    provenance : dict
+        Parameters, start, settings, versions: everything the result depends on.
+    """
+
+    param: str
+    points: "pd.DataFrame"
+    impacts: "pd.DataFrame"
+    bifurcations: list
+    status: str
+    message: str
+    provenance: dict
+    orbits: list = dataclasses.field(default_factory=list, repr=False)
+
+    @property
+    def bifurcation_table(self) -> "pd.DataFrame":
+        import pandas as pd
+        cols = ["kind", "param", "value", "point", "period", "n_impacts", "mu1_re", "mu1_im",
+                "mu2_re", "mu2_im", "message"]
+        rows = [b.as_dict() for b in self.bifurcations]
+        df = pd.DataFrame(rows) if rows else pd.DataFrame(columns=cols)
+        return df[cols + [c for c in df.columns if c not in cols]]
+
+    @property
+    def cancelled(self) -> bool:
+        return self.status == "cancelled"
+
+    def orbit(self, i: int) -> PeriodicOrbit:
+        """The orbit at branch point ``i``."""
+        return self.orbits[int(i)]
+
+    def cache_key(self) -> str:
+        """SHA-256 of the provenance: equal keys, equal results."""
+        from .params import canonical_hash
+        return canonical_hash(self.provenance)
+
+    def arrays(self) -> dict:
+        """Plain arrays of the points, impacts and bifurcations (for caches and ``np.savez``)."""
+        out = {f"points/{c}": self.points[c].to_numpy() for c in self.points.columns}
+        out.update({f"impacts/{c}": self.impacts[c].to_numpy() for c in self.impacts.columns})
+        bt = self.bifurcation_table
+        out.update({f"bifurcations/{c}": bt[c].to_numpy() for c in bt.columns})
+        return out
+
+
+POINT_COLUMNS = ["point", "value", "q", "kind", "period", "n_impacts", "n_active", "n_reverse",
+                 "stable", "mu1_re", "mu1_im", "mu2_re", "mu2_im", "mu_max", "impulse_max",
+                 "impulse_min", "stick_time", "gap_min", "w_min", "event"]
+IMPACT_COLUMNS = ["point", "value", "impact", "t", "phase", "u", "w", "impulse", "flank",
+                  "stable"]
+
+
+def _w_min(orb: PeriodicOrbit) -> float:
+    """Slowest impact, signed: negative when an impact points out of its wall."""
+    if orb.n_impacts == 0:
+        return math.inf
+    if orb.kind == "stick":
+        keep = ~_tail_mask(orb)
+        if not np.any(keep):
+            return math.inf
+        return float(np.min(-orb.flank[keep] * orb.w[keep]))
+    return float(np.min(-orb.flank * orb.w))
+
+
+def _tail_mask(orb: PeriodicOrbit) -> np.ndarray:
+    """Impacts of the chatter before each stick phase: the run of ever slower impacts on the
+    sticking flank that ends in it."""
+    mask = np.zeros(orb.n_impacts, dtype=bool)
+    T = TWO_PI * orb.period
+    for f, ts, _ in orb.stick:
+        before = np.nonzero(orb.t <= ts + 1e-12)[0]
+        if not len(before):
+            before = np.nonzero(orb.t - T <= ts)[0]
+        k = before[-1] if len(before) else -1
+        prev = math.inf
+        while k >= 0 and orb.flank[k] == f and abs(orb.w[k]) < prev and not mask[k]:
+            mask[k] = True
+            prev = abs(orb.w[k])
+            k -= 1
+    return mask
+
+
+def _signature(orb: PeriodicOrbit) -> tuple:
+    """What must stay the same along a branch: period, flanks of the impacts (the chatter
+    tails of stick phases counted as one), stick flanks."""
+    if orb.kind == "impact":
+        return ("impact", orb.period, tuple(int(f) for f in orb.flank))
+    tail = _tail_mask(orb)
+    return ("stick", orb.period, tuple(int(f) for f in orb.flank[~tail]),
+            tuple(int(f) for f in orb.stick[:, 0]))
+
+
+def _stick_margin(orb: PeriodicOrbit) -> float:
+    if not len(orb.stick):
+        return math.inf
+    return float(np.min(orb.stick[:, 2] - orb.stick[:, 1]))
+
+
+# ----- the continuation engine ----------------------------------------------------------------
+
+def _is_cancelled(cancel) -> bool:
+    if cancel is None:
+        return False
+    if isinstance(cancel, threading.Event) or hasattr(cancel, "is_set"):
+        return bool(cancel.is_set())
+    return bool(cancel())
+
+
+class _Branch:
+    """One impact sequence ``(flanks, period)`` under one continued parameter."""
+
+    def __init__(self, spec: _Param, fl: np.ndarray, n: int):
+        self.spec = spec
+        self.fl = np.ascontiguousarray(fl, dtype=np.int8)
+        self.n = int(n)
+        self.lam, self.r, self.j, self.h, self.phi = spec.arrays()
+        self.m2 = 2 * len(self.fl)
+
+    def system(self, z, q):
+        lam, r, j, h, phi = self._at(q)
+        F = np.empty(self.m2)
+        J = np.empty((self.m2, self.m2))
+        Fp = np.empty(self.m2)
+        _system(z, self.fl, self.n, lam, r, j, h, phi, self.spec.kind, self.spec.kidx, F, J, Fp)
+        return F, J, Fp
+
+    def _at(self, q):
+        return _set_params(float(q), self.spec.kind, self.spec.kidx, self.lam, self.r, self.j,
+                           self.h, self.phi)
+
+    def tangent(self, z, q, prev: np.ndarray | None):
+        """Unit null vector of ``[∂F/∂z | ∂F/∂q]``, oriented along ``prev``."""
+        F, J, Fp = self.system(z, q)
+        A = np.hstack([J, Fp[:, None]])
+        t = None
+        if prev is not None:
+            B = np.vstack([A, prev[None, :]])
+            rhs = np.zeros(self.m2 + 1)
+            rhs[-1] = 1.0
+            try:
+                t = np.linalg.solve(B, rhs)
+                if not np.all(np.isfinite(t)):
+                    t = None
+            except np.linalg.LinAlgError:
+                t = None
+        if t is None:
+            t = np.linalg.svd(A)[2][-1]
+        t = t / np.linalg.norm(t)
+        if prev is not None and float(t @ prev) < 0.0:
+            t = -t
+        return t
+
+    def correct(self, X_pred, tau, maxit=12):
+        z = X_pred[:-1].copy()
+        lam, r, j, h, phi = self.lam, self.r, self.j, self.h, self.phi
+        st, q, it, res = _newton(z, float(X_pred[-1]), self.fl, self.n, lam, r, j, h, phi,
+                                 self.spec.kind, self.spec.kidx, tau, X_pred, True, NEWTON_TOL,
+                                 maxit)
+        if st != 0:
+            return None, it
+        return np.append(z, q), it
+
+    def solve_at(self, z, q, maxit=30):
+        z = z.copy()
+        st, _, it, res = _newton(z, float(q), self.fl, self.n, self.lam, self.r, self.j, self.h,
+                                 self.phi, self.spec.kind, self.spec.kidx, np.zeros(1),
+                                 np.zeros(1), False, NEWTON_TOL, maxit)
+        return (z if st == 0 else None), it
+
+    def orbit(self, X) -> PeriodicOrbit:
+        return _impact_orbit(self.spec.params(X[-1]), X[:-1].copy(), self.fl, self.n)
+
+
+def _tests(orb: PeriodicOrbit, v_stick: float) -> dict:
+    """Test functions of one point (see the module docstring)."""
+    S = orb.monodromy
+    tr = float(np.trace(S))
+    det = float(np.linalg.det(S))
+    v_eff = max(v_stick, V_FLOOR)
+    return {"pd": 1.0 + tr + det, "ns": det - 1.0, "ns_ok": abs(tr) < 2.0,
+            "fold": 1.0 - tr + det, "gap": orb.gap_min, "w": _w_min(orb) - v_eff}
+
+
+class _Run:
+    """State of one :func:`continue_orbit` call: the points so far and what was found."""
+
+    def __init__(self, spec, q_lo, q_hi, max_points, progress, cancel, v_stick):
+        self.spec = spec
+        self.q_lo, self.q_hi = q_lo, q_hi
+        self.max_points = max_points
+        self.progress = progress
+        self.cancel = cancel
+        self.v_stick = v_stick
+        self.rows: list[dict] = []
+        self.impact_rows: list[tuple] = []
+        self.orbits: list[PeriodicOrbit] = []
+        self.bifs: list[Bifurcation] = []
+        self.status = ""
+        self.message = ""
+
+    def add(self, orb: PeriodicOrbit, q: float, event: str = "") -> int:
+        i = len(self.rows)
+        mu = orb.multipliers
+        imp = orb.impulse
+        value = self.spec.value_of(q)
+        stable = orb.stable
+        self.rows.append({
+            "point": i, "value": value, "q": float(q), "kind": orb.kind, "period": orb.period,
+            "n_impacts": orb.n_impacts, "n_active": int(np.sum(orb.flank == 1)),
+            "n_reverse": int(np.sum(orb.flank == -1)), "stable": stable,
+            "mu1_re": float(mu[0].real), "mu1_im": float(mu[0].imag),
+            "mu2_re": float(mu[1].real), "mu2_im": float(mu[1].imag),
+            "mu_max": float(np.max(np.abs(mu))),
+            "impulse_max": float(np.max(imp)) if len(imp) else math.nan,
+            "impulse_min": float(np.min(imp)) if len(imp) else math.nan,
+            "stick_time": orb.stick_time, "gap_min": orb.gap_min, "w_min": _w_min(orb),
+            "event": event})
+        ph = orb.phase
+        for k in range(orb.n_impacts):
+            self.impact_rows.append((i, value, k, float(orb.t[k]), float(ph[k]), float(orb.u[k]),
+                                     float(orb.w[k]), float(imp[k]), int(orb.flank[k]), stable))
+        self.orbits.append(orb)
+        if self.progress is not None:
+            self.progress(len(self.rows), self.max_points)
+        return i
+
+    def full(self) -> bool:
+        if len(self.rows) >= self.max_points:
+            self.status = "max_points"
+            self.message = (f"stopped at the limit of max_points = {self.max_points} branch points; "
+                            "raise it to go on")
+            return True
+        if _is_cancelled(self.cancel):
+            self.status = "cancelled"
+            self.message = f"cancelled after {len(self.rows)} points"
+            return True
+        return False
+
+    def bifurcation(self, kind, q, orb, detail, message, restart=None) -> Bifurcation:
+        b = Bifurcation(kind=kind, param=self.spec.name, value=self.spec.value_of(q),
+                        point=max(len(self.rows) - 1, 0), orbit=orb, detail=detail,
+                        message=message, q=float(q), _restart=restart)
+        self.bifs.append(b)
+        return b
+
+
+def _light(br: _Branch, X, v_stick: float) -> dict:
+    """Test functions at X without the event search (for locating a sign change)."""
+    lam, r, j, h, phi = br._at(X[-1])
+    z = X[:-1]
+    m = len(br.fl)
+    w = np.empty(m)
+    M = np.empty((2, 2))
+    S = np.empty((2, 2))
+    _maps(z, br.fl, br.n, lam, r, j, h, phi, w, M, S)
+    gmin = np.empty(m)
+    gs = np.empty(m)
+    gw = np.empty(m, dtype=np.int64)
+    contact = np.empty(m)
+    _inspect(z, br.fl, br.n, lam, r, j, h, phi, v_stick, False, gmin, gs, gw, contact)
+    tr = S[0, 0] + S[1, 1]
+    det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
+    return {"pd": 1.0 + tr + det, "ns": det - 1.0, "fold": 1.0 - tr + det, "tr": tr,
+            "gap": float(np.min(gmin)), "w": float(np.min(-br.fl * w)) - max(v_stick, V_FLOOR)}
+
+
+def _admissible_sign(br: _Branch, X, v_stick: float) -> float:
+    lam, r, j, h, phi = br._at(X[-1])
+    m = len(br.fl)
+    gmin, gs, contact = np.empty(m), np.empty(m), np.empty(m)
+    gw = np.empty(m, dtype=np.int64)
+    code = _inspect(X[:-1], br.fl, br.n, lam, r, j, h, phi, v_stick, True, gmin, gs, gw, contact)
+    return 1.0 if code == ADMISSIBLE else -1.0
+
+
+def _locate(br: _Branch, X0, tau0, h_hi, f0, f1, fn, tol):
+    """Zero of ``fn`` along the arclength from ``X0`` (value ``f0``) to ``h_hi`` (value ``f1``).
+
+    Illinois regula falsi; each trial point is corrected onto the branch on the plane
+    ``τ0 · (X − X0 − h τ0) = 0``.  Returns ``(X, f)`` at the end nearer the zero, or
+    ``(None, nan)`` if a correction fails.
+    """
+    lo, hi = 0.0, h_hi
+    X_lo, X_hi = X0, None
+    side = 0
+    X_best, f_best = X0, f0
+    for _ in range(200):
+        if f1 != f0 and np.isfinite(f0) and np.isfinite(f1):
+            h = (lo * f1 - hi * f0) / (f1 - f0)
+            if not lo < h < hi:
+                h = 0.5 * (lo + hi)
+        else:
+            h = 0.5 * (lo + hi)
+        X, _ = br.correct(X0 + h * tau0, tau0, maxit=20)
+        if X is None:
+            return None, math.nan
+        f = fn(X)
+        if abs(f) < abs(f_best) or X_best is X0:
+            X_best, f_best = X, f
+        if (f > 0) == (f0 > 0):
+            lo, f0, X_lo = h, f, X
+            if side == -1:
+                f1 *= 0.5
+            side = -1
+        else:
+            hi, f1, X_hi = h, f, X
+            if side == 1:
+                f0 *= 0.5
+            side = 1
+        if X_hi is not None and abs(X_hi[-1] - X_lo[-1]) < tol * (1.0 + abs(X_lo[-1])) and \
+                hi - lo < 1e-5:
+            break
+        if f == 0.0 or hi - lo < 1e-15:
+            break
+    return X_best, f_best
+
+
+_EVENT_TESTS = ("fold", "pd", "ns", "gap", "w")
+
+
+def _follow(run: _Run, br: _Branch, X, tau, ds, ds_min, ds_max, first_event: str = ""):
+    """Pseudo-arclength continuation of an impact orbit from ``X`` along ``tau``."""
+    spec = run.spec
+    vs = run.v_stick
+    orb = br.orbit(X)
+    run.add(orb, X[-1], first_event)
+    tests = _light(br, X, vs)
+    X_start = X.copy()
+    tol = LOCATE_TOL
+    while not run.full():
+        X_new, it = br.correct(X + ds * tau, tau)
+        if X_new is not None and np.linalg.norm(X_new - X) > 2.0 * ds:
+            X_new = None
+        tau_new = None
+        if X_new is not None:
+            tau_new = br.tangent(X_new[:-1], X_new[-1], tau)
+            if float(tau_new @ tau) < 0.95 and ds > 4.0 * ds_min:
+                X_new = None
+        if X_new is None:
+            ds *= 0.5
+            if ds < ds_min:
+                run.status = "step_too_small"
+                run.message = (f"the corrector failed with steps down to ds_min = {ds_min:g} near "
+                               f"{spec.name} = {spec.value_of(X[-1]):.10g}")
+                return
+            continue
+        t_new = _light(br, X_new, vs)
+        ok = _admissible_sign(br, X_new, vs) > 0
+        # events between X and X_new, located along the arclength
+        found = []
+        if tau[-1] * tau_new[-1] < 0.0:
+            found.append("fold")
+        for key in ("pd", "gap", "w"):
+            if np.isfinite(tests[key]) and np.isfinite(t_new[key]) and \
+                    (tests[key] > 0) != (t_new[key] > 0):
+                found.append(key)
+        if (tests["ns"] > 0) != (t_new["ns"] > 0) and abs(tests["tr"]) < 2.0 and \
+                abs(t_new["tr"]) < 2.0:
+            found.append("ns")
+        located = []
+        for key in found:
+            fn = (lambda Y, k=key: _light(br, Y, vs)[k])
+            if key == "fold":
+                def fn(Y):
+                    return br.tangent(Y[:-1], Y[-1], tau)[-1]
+                f0, f1 = tau[-1], tau_new[-1]
+            else:
+                f0, f1 = tests[key], t_new[key]
+            Xe, fe = _locate(br, X, tau, ds, f0, f1, fn, tol)
+            if Xe is not None:
+                located.append((float(np.linalg.norm(Xe - X)), key, Xe))
+        if not ok and not any(k in ("gap", "w") for _, k, _ in located):
+            Xe, _ = _locate(br, X, tau, ds, 1.0, -1.0, lambda Y: _admissible_sign(br, Y, vs), tol)
+            if Xe is not None:
+                located.append((float(np.linalg.norm(Xe - X)), "contact", Xe))
+        located.sort(key=lambda e: e[0])
+        stop = False
+        for _, key, Xe in located:
+            if not (run.q_lo <= Xe[-1] <= run.q_hi):
+                continue
+            if _event(run, br, key, Xe, tau):
+                stop = True
+                break
+        if stop:
+            return
+        # the bound
+        if not (run.q_lo <= X_new[-1] <= run.q_hi):
+            qb = run.q_hi if X_new[-1] > run.q_hi else run.q_lo
+            frac = (qb - X[-1]) / (X_new[-1] - X[-1])
+            zb, _ = br.solve_at(X[:-1] + frac * (X_new[:-1] - X[:-1]), qb)
+            if zb is not None:
+                run.add(br.orbit(np.append(zb, qb)), qb)
+            run.status = "bound"
+            run.message = f"reached the bound {spec.name} = {spec.value_of(qb):.10g}"
+            return
+        if not ok:
+            # inadmissible without a located event: stop rather than follow a virtual orbit
+            run.add(br.orbit(X_new), X_new[-1])
+            run.status = "inadmissible"
+            run.message = (f"the orbit stopped being an orbit of the model near {spec.name} = "
+                           f"{spec.value_of(X_new[-1]):.10g}: {br.orbit(X_new).reason}")
+            return
+        X, tau, tests = X_new, tau_new, t_new
+        orb = br.orbit(X)
+        run.add(orb, X[-1])
+        if len(run.rows) > 10 and np.linalg.norm(X - X_start) < 0.5 * ds:
+            run.status = "closed"
+            run.message = "the branch came back to its first point (a closed curve)"
+            return
+        ds = min(ds * (1.5 if it <= 3 else (1.0 if it <= 6 else 0.5)), ds_max)
+    return
+
+
+def _event(run: _Run, br: _Branch, key: str, Xe, tau) -> bool:
+    """Record the event ``key`` located at ``Xe``; True when the branch stops there."""
+    spec = run.spec
+    q = float(Xe[-1])
+    orb = br.orbit(Xe)
+    value = spec.value_of(q)
+    where = f"{spec.name} = {value:.10g}"
+    if key == "fold":
+        run.add(orb, q, "fold")
+        run.bifurcation("fold", q, orb, {"multiplier": 1.0},
+                        f"fold at {where}: the branch turns back (multiplier +1)",
+                        restart=("fold", br, Xe, tau))
+        return False
+    if key == "pd":
+        run.add(orb, q, "period_doubling")
+        run.bifurcation("period_doubling", q, orb, {"multiplier": -1.0},
+                        f"period doubling at {where} (multiplier −1); a period-{2 * br.n} orbit "
+                        "branches off (continue_orbit(start=this) follows it)",
+                        restart=("pd", br, Xe, tau))
+        return False
+    if key == "ns":
+        run.add(orb, q, "neimark_sacker")
+        run.bifurcation("neimark_sacker", q, orb, {}, f"Neimark–Sacker at {where}")
+        return False
+    if key == "gap" or key == "contact":
+        k, tg, wall = orb.gap_where
+        run.add(orb, q, "grazing")
+        run.status = "grazing"
+        run.message = (f"grazing at {where}: flight {k} touches the "
+                       f"{'active' if wall == 1 else 'reverse'} flank at t = {tg:.10g}; "
+                       "beyond, the orbit gains an impact (continue_orbit(start=this) restarts "
+                       "with it)")
+        run.bifurcation("grazing", q, orb, {"type": "flight", "flight": int(k), "wall": int(wall),
+                                            "time": float(tg), "gap": float(orb.gap_min)},
+                        run.message, restart=("insert", br, Xe, tau))
+        return True
+    # an impact reaches the slowest speed the model resolves
+    w = -orb.flank * orb.w
+    k = int(np.argmin(w))
+    from .excitation import excitation
+    p = orb.params
+    react = orb.flank[k] * (1.0 + p.lam * float(excitation(orb.t[k], p.h, p.phi, 2)))
+    side = "active" if orb.flank[k] == 1 else "reverse"
+    if react > 0.0:
+        run.add(orb, q, "stick_onset")
+        run.status = "stick_onset"
+        run.message = (f"onset of sticking at {where}: impact {k} on the pushing {side} flank "
+                       f"at t = {orb.t[k]:.10g} slows to v_stick; beyond, the gear sticks "
+                       "(continue_orbit(start=this) restarts on the orbit that sticks)")
+        run.bifurcation("stick_onset", q, orb, {"type": "impact", "impact": k,
+                                                "flank": int(orb.flank[k]),
+                                                "time": float(orb.t[k])},
+                        run.message, restart=("simulate", br, Xe, tau))
+    else:
+        run.add(orb, q, "grazing")
+        run.status = "grazing"
+        run.message = (f"grazing at {where}: impact {k} on the {side} flank at "
+                       f"t = {orb.t[k]:.10g} reaches zero relative velocity; beyond, the orbit "
+                       "loses it (continue_orbit(start=this) restarts without it)")
+        run.bifurcation("grazing", q, orb, {"type": "impact", "impact": k,
+                                            "wall": int(orb.flank[k]), "time": float(orb.t[k]),
+                                            "w": float(orb.w[k])},
+                        run.message, restart=("remove", br, Xe, tau))
+    return True
+
+
+def _release_roots(params: RattleParams, flank: int) -> np.ndarray:
+    """Phases in [0, 2π) where the reaction ``σ(1 + Λÿ)`` falls through zero: the releases."""
+    from scipy.optimize import brentq
+
+    from .excitation import excitation
+    p = params
+    t = np.linspace(0.0, TWO_PI, 4097)
+    f = flank * (1.0 + p.lam * excitation(t, p.h, p.phi, 2))
+    out = []
+    for i in np.nonzero((f[:-1] > 0) & (f[1:] <= 0))[0]:
+        if f[i + 1] == 0.0:
+            out.append(t[i + 1])
+            continue
+        out.append(brentq(lambda s: flank * (1.0 + p.lam * float(excitation(s, p.h, p.phi, 2))),
+                          t[i], t[i + 1], xtol=1e-15, rtol=4e-16))
+    return np.mod(np.array(out), TWO_PI)
+
+
+def _stick_at(spec: _Param, q: float, handle: tuple[float, int]) -> PeriodicOrbit | None:
+    """The stick orbit at ``q`` through the release nearest to ``handle = (phase, flank)``."""
+    try:
+        params = spec.params(q)
+    except ValueError:
+        return None
+    roots = _release_roots(params, handle[1])
+    if not len(roots):
+        return None
+    d = np.abs((roots - handle[0] + math.pi) % TWO_PI - math.pi)
+    k = int(np.argmin(d))
+    if d[k] > 0.2:
+        return None
+    try:
+        return stick_orbit(params, float(roots[k]), handle[1])
+    except ContinuationError:
+        return None
+
+
+def _handle(orb: PeriodicOrbit) -> tuple[float, int]:
+    f, _, tr = orb.stick[-1]
+    return float(tr % TWO_PI), int(f)
+
+
+def _follow_stick(run: _Run, orb: PeriodicOrbit, q: float, dq: float, dq_min: float,
+                  dq_max: float, first_event: str = ""):
+    """Natural-parameter continuation of an orbit that sticks (superstable, no folds)."""
+    spec = run.spec
+    run.add(orb, q, first_event)
+    sig = _signature(orb)
+    while not run.full():
+        q_new = q + dq
+        at_bound = False
+        if not run.q_lo <= q_new <= run.q_hi:
+            q_new = run.q_hi if q_new > run.q_hi else run.q_lo
+            at_bound = True
+        new = _stick_at(spec, q_new, _handle(orb))
+        if new is not None and _signature(new) == sig:
+            q, orb = q_new, new
+            run.add(orb, q)
+            if at_bound:
+                run.status = "bound"
+                run.message = f"reached the bound {spec.name} = {spec.value_of(q):.10g}"
+                return
+            dq = math.copysign(min(abs(dq) * 1.5, dq_max), dq)
+            continue
+        if abs(dq) > 8 * dq_min and (new is None or abs(dq) > 4 * dq_min):
+            # bisect the change of the impact pattern down to the locating tolerance
+            lo, hi, o_lo = q, q_new, orb
+            while abs(hi - lo) > LOCATE_TOL * (1.0 + abs(lo)):
+                mid = 0.5 * (lo + hi)
+                o = _stick_at(spec, mid, _handle(o_lo))
+                if o is not None and _signature(o) == sig:
+                    lo, o_lo = mid, o
+                else:
+                    hi = mid
+            o_hi = _stick_at(spec, hi, _handle(o_lo))
+            _stick_event(run, o_lo, lo, o_hi, hi)
+            return
+        run.status = "step_too_small"
+        run.message = f"no stick orbit beyond {spec.name} = {spec.value_of(q):.10g}"
+        return
+
+
+def _stick_event(run: _Run, o_lo: PeriodicOrbit, q_lo: float, o_hi, q_hi: float):
+    spec = run.spec
+    where = f"{spec.name} = {spec.value_of(q_lo):.10g}"
+    margin = _stick_margin(o_lo)
+    scale = 1e-6
+    if margin < scale:
+        kind = "stick_end"
+        msg = (f"end of sticking at {where}: the stick phase shrinks to nothing (left "
+               f"{margin:.3g}); beyond, the gear no longer sticks (continue_orbit(start=this) "
+               "restarts by simulation)")
+        detail = {"stick_time": margin}
+    elif o_lo.gap_min < scale or (o_hi is not None and o_hi.n_impacts != o_lo.n_impacts
+                                  and _w_min(o_lo) > scale):
+        kind = "grazing"
+        k, tg, wall = o_lo.gap_where
+        msg = (f"grazing at {where}: a flight touches the "
+               f"{'active' if wall == 1 else 'reverse'} flank at t = {tg:.10g}; beyond, the "
+               "impact pattern changes (continue_orbit(start=this) restarts by simulation)")
+        detail = {"type": "flight", "wall": int(wall), "time": float(tg),
+                  "gap": float(o_lo.gap_min)}
+    elif _w_min(o_lo) < scale:
+        kind = "grazing"
+        msg = (f"grazing at {where}: an impact reaches zero relative velocity; beyond, the "
+               "orbit loses it (continue_orbit(start=this) restarts by simulation)")
+        detail = {"type": "impact", "w": _w_min(o_lo)}
+    else:
+        kind = "sequence_change"
+        msg = (f"the orbit that sticks changes at {where}"
+               + (": its release disappears" if o_hi is None else
+                  f": {o_lo.summary()} becomes {o_hi.summary()}"))
+        detail = {}
+    run.add(o_lo, q_lo, kind)
+    run.status = kind
+    run.message = msg
+    run.bifurcation(kind, q_lo, o_lo, detail, msg, restart=("simulate", None, q_lo, q_hi))
+
+
+# ----- starting and restarting ----------------------------------------------------------------
+
+def _pd_switch(run: _Run, br: _Branch, Xe, ds, ds_min, ds_max):
+    """Start the doubled orbit's branch at a period doubling, along the critical eigenvector."""
+    m = len(br.fl)
+    z = Xe[:-1]
+    lam, r, j, h, phi = br._at(Xe[-1])
+    D = np.empty((m, 2, 2))
+    _local_maps(z, br.fl, br.n, lam, r, h, phi, D)
+    M = np.eye(2)
+    for i in range(m):
+        M = D[i] @ M
+    ev, vec = np.linalg.eig(M)
+    e = np.real(vec[:, int(np.argmin(np.abs(ev + 1.0)))])
+    delta = np.empty((m, 2))
+    delta[0] = e
+    for i in range(m - 1):
+        delta[i + 1] = D[i] @ delta[i]
+    br2 = _Branch(br.spec, np.concatenate([br.fl, br.fl]), 2 * br.n)
+    shift = np.zeros(2 * m)
+    shift[0::2] = TWO_PI * br.n
+    X2 = np.concatenate([z, z + shift, [Xe[-1]]])
+    tau = np.concatenate([delta.ravel(), -delta.ravel(), [0.0]])
+    tau /= np.linalg.norm(tau)
+    h_step = ds
+    while h_step >= ds_min:
+        X1, _ = br2.correct(X2 + h_step * tau, tau)
+        if X1 is not None:
+            gap = np.max(np.abs(X1[2 * m:-1] - X1[:2 * m] - shift))
+            if gap > 1e-8 and _admissible_sign(br2, X1, run.v_stick) > 0:
+                t1 = br2.tangent(X1[:-1], X1[-1], (X1 - X2) / np.linalg.norm(X1 - X2))
+                run.add(br2.orbit(X2), X2[-1], "period_doubling")
+                _follow(run, br2, X1, t1, ds, ds_min, ds_max)
+                return
+        h_step *= 0.5
+    raise ContinuationError(f"could not switch onto the period-{2 * br.n} branch at "
+                            f"{br.spec.name} = {br.spec.value_of(Xe[-1]):.10g}")
+
+
+def _surgery_start(run: _Run, br: _Branch, Xe, mode: str, ds, ds_min, ds_max):
+    """Restart past a grazing with one impact more (``insert``) or fewer (``remove``)."""
+    spec = br.spec
+    q = float(Xe[-1])
+    orb = br.orbit(Xe)
+    z = Xe[:-1]
+    fl = br.fl
+    if mode == "insert":
+        k, tg, wall = orb.gap_where
+        from .excitation import excitation
+        p = orb.params
+        ug = float(excitation(tg, p.h, p.phi, 1))
+        z_new = np.concatenate([z[:2 * k + 2], [tg, ug], z[2 * k + 2:]])
+        fl_new = np.concatenate([fl[:k + 1], [wall], fl[k + 1:]]).astype(np.int8)
+    else:
+        k = int(np.argmin(-orb.flank * orb.w))
+        z_new = np.concatenate([z[:2 * k], z[2 * k + 2:]])
+        fl_new = np.concatenate([fl[:k], fl[k + 1:]]).astype(np.int8)
+        if len(fl_new) == 0:
+            raise ContinuationError("the orbit loses its only impact: nothing left to follow")
+        if k == 0:
+            # the period must start at its first impact: rotate the removed one's period away
+            t_new, u_new, fl_new = _normalise(z_new[0::2], z_new[1::2], fl_new, br.n)
+            z_new = _pack(t_new, u_new)
+    br2 = _Branch(spec, fl_new, br.n)
+    X0 = np.append(z_new, q)
+    if mode == "remove":
+        z_fix, _ = br2.solve_at(z_new, q)
+        if z_fix is not None:
+            X0 = np.append(z_fix, q)
+    tau = br2.tangent(X0[:-1], q, None)
+    h_step = ds
+    while h_step >= ds_min:
+        for sgn in (1.0, -1.0):
+            X1, _ = br2.correct(X0 + sgn * h_step * tau, sgn * tau)
+            if X1 is not None and _admissible_sign(br2, X1, run.v_stick) > 0:
+                t1 = br2.tangent(X1[:-1], X1[-1], sgn * tau)
+                _follow(run, br2, X1, t1, ds, ds_min, ds_max)
+                return
+        h_step *= 0.5
+    raise ContinuationError(f"no orbit with the new impact sequence (flanks {fl_new.tolist()}) "
+                            f"near {spec.name} = {spec.value_of(q):.10g}")
+
+
+def _simulate_start(run: _Run, spec: _Param, orb: PeriodicOrbit, q: float, sgn: float,
+                    ds, ds_min, ds_max):
+    """Restart past an event by simulation from the old orbit, just beyond it."""
+    last = None
+    for step in (1e-7, 1e-6, 1e-5, 1e-4):
+        q1 = q + sgn * step * (1.0 + abs(q))
+        try:
+            params = spec.params(q1)
+        except ValueError:
+            break
+        t0 = float(orb.t[0]) if orb.n_impacts else 0.0
+        x0, v0 = orb.state_at(t0 - 1e-3)
+        try:
+            new = find_orbit(params, x0=float(x0), v0=float(v0), t0=t0 - 1e-3, transient=400)
+        except (ContinuationError, ValueError) as exc:
+            last = exc
+            continue
+        _start(run, spec, new, q1, sgn, ds, ds_min, ds_max)
+        return
+    raise ContinuationError(f"no periodic attractor found just beyond {spec.name} = "
+                            f"{spec.value_of(q):.10g} by simulation from the old orbit"
+                            + (f" ({last})" if last else ""))
+
+
+def _start(run: _Run, spec: _Param, orb: PeriodicOrbit, q: float, sgn: float, ds, ds_min,
+           ds_max, event: str = ""):
+    """Continue from a solved orbit at ``q`` towards increasing ``q`` (sgn > 0) or decreasing."""
+    if orb.kind == "stick":
+        _follow_stick(run, orb, q, sgn * ds, ds_min, ds_max, event)
+        return
+    br = _Branch(spec.with_base(orb.params) if spec.physical is None else spec, orb.flank,
+                 orb.period)
+    X = np.append(_pack(orb.t, orb.u), q)
+    prev = np.zeros(len(X))
+    prev[-1] = sgn
+    tau = br.tangent(X[:-1], q, prev)
+    if tau[-1] * sgn < 0:
+        tau = -tau
+    _follow(run, br, X, tau, ds, ds_min, ds_max, event)
+
+
+def continue_orbit(start, param: str | None = None, *, bounds: Sequence[float] | None = None,
+                   direction: int = 1, ds: float = 0.01, ds_min: float = 1e-9,
+                   ds_max: float = 0.1, max_points: int = 1000, physical=None,
+                   progress: Callable[[int, int], Any] | None = None,
+                   cancel: threading.Event | Callable[[], bool] | None = None
+                   ) -> ContinuationResult:
+    """Follow a periodic orbit as one parameter changes; locate its bifurcations.
+
+    Pseudo-arclength continuation of the shooting equations for orbits with impacts only
+    (through folds, stable and unstable alike); natural-parameter steps for orbits that stick
+    (superstable).  See the module docstring for the method.
+
+    Parameters
+    ----------
+    start : PeriodicOrbit, RattleParams or Bifurcation
+        The first orbit (from :func:`find_orbit`, :func:`c_orbit`, :func:`solve_orbit`,
+        :func:`stick_orbit`); parameters, to start from the orbit a simulation settles on; or a
+        bifurcation of an earlier result: a period doubling starts the doubled orbit's branch,
+        a grazing restarts with the impact gained or lost, an onset or end of sticking restarts
+        from a simulation just beyond, a fold goes on through it.
+    param : str
+        ``lam``, ``r``, ``j``, ``hK`` (H_K/H1), ``phiK`` (degrees), or with ``physical``
+        ``rpm`` (engine speed) or ``drag_torque`` [N·m].  Default: the bifurcation's
+        parameter, else ``lam``.
+    bounds : (float, float), optional
+        Stop when the parameter leaves this interval (its units).  Default: the model's range.
+    direction : {1, -1}
+        Start towards increasing (1) or decreasing (−1) values.
+    ds, ds_min, ds_max : float
+        First, smallest and largest arclength step, in the dimensionless unknowns (impact
+        times, velocities and Λ, r, j, h_K, or φ_K in radians).
+    max_points : int
+        Most branch points, in [1, 100000]; the run stops there with a message.
+    physical : PhysicalParams, optional
+        The gear in physical units, for ``rpm`` and ``drag_torque``; ``start`` must then be
+        an orbit at ``physical.to_dimensionless()``.
+    progress : callable(done, max_points), optional
+        Called after every point.
+    cancel : threading.Event or callable() -> bool, optional
+        Polled after every point; when set the run stops (``status == "cancelled"``) and
+        returns the points so far.
+
+    Returns
+    -------
+    ContinuationResult
+        Branch points, impacts per point, bifurcations, why it stopped, provenance.
+    """
+    import pandas as pd
+
+    t_start = time.perf_counter()
+    if param is None:
+        param = start.param if isinstance(start, Bifurcation) else "lam"
+    if isinstance(start, Bifurcation):
+        if param != start.param:
+            raise ValueError(f"param = {param!r}, but the bifurcation was found in "
+                             f"{start.param!r}; restart in the same parameter")
+        if start._restart is None:
+            raise ValueError(f"a {start.kind} bifurcation offers no restart")
+        params0 = start.orbit.params
+    elif isinstance(start, PeriodicOrbit):
+        params0 = start.params
+    elif isinstance(start, RattleParams):
+        params0 = start
+    else:
+        raise ValueError(f"start must be a PeriodicOrbit, a RattleParams or a Bifurcation, got "
+                         f"{type(start).__name__}")
+    if direction not in (1, -1):
+        raise ValueError(f"direction = {direction!r}; allowed: 1 (increasing) or -1 (decreasing)")
+    ds = check_range("ds", ds, 0.0, 1.0, lo_open=True)
+    ds_max = check_range("ds_max", ds_max, ds, 10.0)
+    ds_min = check_range("ds_min", ds_min, 0.0, ds, lo_open=True)
+    max_points = int(check_range("max_points", max_points, 1, MAX_POINTS))
+    if isinstance(start, Bifurcation):
+        spec = start._restart[1].spec if start._restart[1] is not None else \
+            _Param.make(param, params0, physical if physical is not None else None)
+        if physical is None and spec.physical is not None:
+            physical = spec.physical
+    else:
+        spec = _Param.make(param, params0, physical)
+        if physical is not None and param in ("rpm", "drag_torque"):
+            a, b = spec.base.canonical(), params0.canonical()
+            if a != b and not _close_params(spec.base, params0):
+                raise ValueError("start is not at the parameters of physical "
+                                 f"(physical.to_dimensionless() = {spec.base}, start at {params0})")
+    # the internal range, and the user's bounds in it
+    lo_q, hi_q = spec.q_range()
+    if bounds is not None:
+        try:
+            b0, b1 = (float(v) for v in bounds)
+        except (TypeError, ValueError):
+            raise ValueError(f"bounds must be two numbers (low, high), got {bounds!r}") from None
+        if not (math.isfinite(b0) and math.isfinite(b1)) or b0 >= b1:
+            raise ValueError(f"bounds = {bounds!r} must be two finite numbers, low < high")
+        qa, qb = sorted((spec.q_of(b0), spec.q_of(b1)))
+        for v, qv in ((b0, qa), (b1, qb)):
+            try:
+                spec.params(qv)
+            except ValueError as exc:
+                raise ValueError(f"bounds: {param} = {v!r} is outside the model's range ({exc})") \
+                    from None
+        lo_q, hi_q = max(lo_q, qa), min(hi_q, qb)
+    eps = 1e-12 * (1.0 + abs(hi_q - lo_q))
+    if spec.kind in (_KIND_LAM, _KIND_J):
+        lo_q = max(lo_q, 1e-9)
+    q_start = spec.q0 if not isinstance(start, Bifurcation) else start.q
+    if not lo_q - eps <= q_start <= hi_q + eps:
+        raise ValueError(f"the start, {param} = {spec.value_of(q_start):.10g}, lies outside "
+                         f"bounds [{spec.value_of(lo_q):.10g}, {spec.value_of(hi_q):.10g}]")
+    sgn = float(direction)
+    if param == "drag_torque":
+        sgn = -sgn  # Λ falls as the drag torque grows
+    run = _Run(spec, lo_q, hi_q, max_points, progress, cancel, float(params0.v_stick))
+
+    if isinstance(start, RattleParams):
+        start = find_orbit(start)
+    if isinstance(start, PeriodicOrbit):
+        _start(run, spec, start, spec.q0, sgn, ds, ds_min, ds_max)
+    else:
+        how = start._restart
+        if how[0] == "pd":
+            _pd_switch(run, how[1], how[2], ds, ds_min, ds_max)
+        elif how[0] in ("insert", "remove"):
+            _surgery_start(run, how[1], how[2], how[0], ds, ds_min, ds_max)
+        elif how[0] == "fold":
+            _follow(run, how[1], how[2], how[3], ds, ds_min, ds_max, "fold")
+        else:
+            beyond = float(np.sign(how[3][-1])) if how[1] is not None else \
+                float(np.sign(how[3] - how[2]))
+            _simulate_start(run, spec, start.orbit, start.q, beyond or sgn, ds, ds_min, ds_max)
+    if not run.status:
+        run.status = "done"
+    points = pd.DataFrame(run.rows, columns=POINT_COLUMNS)
+    impacts = pd.DataFrame(run.impact_rows, columns=IMPACT_COLUMNS)
+    impacts["flank"] = impacts["flank"].astype(np.int8)
+    provenance = {
+        "param": param, "params": params0.to_dict(),
+        "physical": dataclasses.asdict(physical) if physical is not None else None,
+        "start": _start_provenance(start),
+        "settings": {"bounds": [spec.value_of(lo_q), spec.value_of(hi_q)],
+                     "direction": direction, "ds": ds, "ds_min": ds_min, "ds_max": ds_max,
+                     "max_points": max_points},
+        "solver_version": SOLVER_VERSION, "continuation_version": CONTINUATION_VERSION,
+        "seconds": time.perf_counter() - t_start,
+    }
+    return ContinuationResult(param=param, points=points, impacts=impacts,
+                              bifurcations=run.bifs, status=run.status, message=run.message,
+                              provenance=provenance, orbits=run.orbits)
+
+
+def _close_params(a: RattleParams, b: RattleParams) -> bool:
+    da, db = a.to_dict(), b.to_dict()
+    return all(np.allclose(np.atleast_1d(da[k]), np.atleast_1d(db[k]), rtol=1e-12, atol=1e-12)
+               if len(np.atleast_1d(da[k])) == len(np.atleast_1d(db[k])) else False for k in da)
+
+
+def _start_provenance(start) -> dict:
+    if isinstance(start, Bifurcation):
+        return {"bifurcation": start.kind, "value": start.value, "param": start.param,
+                "orbit": _start_provenance(start.orbit)}
+    if isinstance(start, PeriodicOrbit):
+        return {"period": start.period, "t": start.t.tolist(), "u": start.u.tolist(),
+                "flank": start.flank.tolist(), "stick": start.stick.tolist(),
+                "params": start.params.to_dict()}
+    return {}
