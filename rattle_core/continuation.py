@@ -42,9 +42,9 @@ nor possible there (the chatter before sticking is an infinite impact sequence).
 orbit is computed exactly instead: from a release, ``simulate`` runs until the gear sticks
 and releases again, until a release repeats.  Such orbits have no folds and no flip or
 torus bifurcations; they are followed in natural-parameter steps, and they end where their
-impact pattern changes (a grazing flight) or where the stick phase shrinks to nothing.  The
-stick phase starts at the accumulation point of the chatter, estimated from the last impact
-faster than ``v_stick`` by the geometric series ``t∞ ≈ t_k + 2r|w_k| / ((1 − r)|g''|)``.
+impact pattern changes (a grazing flight) or where the stick phase shrinks to nothing.  As in
+the solver, the stick phase starts at the first contact slower than ``v_stick``, which ends
+the chatter (the exact model's accumulation point is a few ``v_stick``-sized steps later).
 
 **Pseudo-arclength continuation.**  With the parameter ``p`` added to the unknowns, the
 solutions form curves.  From a point and its unit tangent ``τ`` (the null vector of
@@ -616,7 +616,7 @@ class PeriodicOrbit:
         Incoming relative velocity ``w = ẋ⁻ − ẏ`` of each impact.
     stick : ndarray, shape (k, 3)
         Stick phases: flank, start time, release time (empty for an impact orbit).  The start
-        is the accumulation point of the chatter (see the module docstring).
+        is where the solver ends the chatter (the first contact slower than ``v_stick``).
     monodromy : ndarray, shape (2, 2)
         Jacobian of the stroboscopic map over one period, in ``(x, ẋ)``, at the time just after
         the first impact (zero for an orbit that sticks).
@@ -685,6 +685,8 @@ class PeriodicOrbit:
         """Exact position and velocity on the orbit at times ``t`` (any, the orbit is periodic)."""
         p = self.params
         t = np.asarray(t, dtype=np.float64)
+        shape = t.shape
+        t = np.atleast_1d(t)
         T = TWO_PI * self.period
         ev_t, ev_k, ev_x, ev_v = self._events()
         tt = ev_t[0] + np.mod(t - ev_t[0], T)
@@ -698,7 +700,7 @@ class PeriodicOrbit:
             from .excitation import excitation
             x[stuck] = excitation(tt[stuck], p.h, p.phi) + np.where(kind[stuck] == -1, p.j, 0.0)
             v[stuck] = excitation(tt[stuck], p.h, p.phi, 1)
-        return x, v
+        return x.reshape(shape), v.reshape(shape)
 
     def _events(self):
         """Segments over one period: start time, kind (0 flight, ±1 stuck), state at start."""
@@ -874,18 +876,6 @@ def c_orbit(params: RattleParams, n: int = 1, which: str = "stable") -> Periodic
     return solve_orbit(params, [pick.theta], [math.pi * n / params.lam], [1], n)
 
 
-def _stick_start(params: RattleParams, t_s: float, w: float, sigma: int) -> float:
-    """Accumulation point of the chatter that the solver ended at ``t_s`` with velocity ``w``.
-
-    The remaining bounces take ``2r|w|/|g''|`` times ``1 + r + r² + ⋯``; ``|g''| = |R̃|/Λ``.
-    """
-    from .excitation import excitation
-    react = abs(1.0 + params.lam * float(excitation(t_s, params.h, params.phi, 2)))
-    if params.r == 0.0 or react == 0.0 or params.r >= 1.0:
-        return t_s
-    return t_s + 2.0 * params.r * abs(w) * params.lam / ((1.0 - params.r) * react)
-
-
 def _releases(tr) -> list[tuple[float, int, float, float]]:
     """Stick phases of a trajectory: ``(release time, flank, stick start, w at the capture)``."""
     out = []
@@ -951,7 +941,7 @@ def _stick_from(tr, rel, n: int) -> PeriodicOrbit:
     w = tr.impact_w[sel]
     from .excitation import excitation
     u = excitation(t, p.h, p.phi, 1) - p.r * w
-    stick = np.array([(f, _stick_start(p, ts, wc, f), tre) for tre, f, ts, wc in rel[1:]],
+    stick = np.array([(f, ts, tre) for tre, f, ts, wc in rel[1:]],
                      dtype=np.float64).reshape(-1, 3)
     shift = math.floor(t0 / TWO_PI) * TWO_PI
     t = t - shift
@@ -1047,9 +1037,10 @@ BIFURCATION_KINDS = {
     "stick_onset": "onset of sticking: an impact on a pushing wall becomes slower than v_stick",
     "stick_end": "end of sticking: the stick phase shrinks to nothing",
     "sequence_change": "the impact sequence of an orbit that sticks changes",
+    "permanent_contact": "the reaction never changes sign: the gear stays on the tooth (A)",
 }
 #: Bifurcations after which the branch cannot go on with the same impact sequence.
-TERMINAL = ("grazing", "stick_onset", "stick_end", "sequence_change")
+TERMINAL = ("grazing", "stick_onset", "stick_end", "sequence_change", "permanent_contact")
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -1091,8 +1082,7 @@ class Bifurcation:
     @property
     def can_restart(self) -> bool:
         """Whether :func:`continue_orbit` can start a new branch here (``start=bifurcation``)."""
-        return self.kind in ("period_doubling", "grazing", "stick_onset", "stick_end",
-                             "sequence_change", "fold")
+        return self._restart is not None
 
     def as_dict(self) -> dict:
         mu = self.orbit.multipliers
@@ -1146,6 +1136,7 @@ class ContinuationResult:
     message: str
     provenance: dict
     orbits: list = dataclasses.field(default_factory=list, repr=False)
+    _spec: Any = dataclasses.field(default=None, repr=False)
 
     @property
     def bifurcation_table(self) -> "pd.DataFrame":
@@ -1163,6 +1154,35 @@ class ContinuationResult:
     def orbit(self, i: int) -> PeriodicOrbit:
         """The orbit at branch point ``i``."""
         return self.orbits[int(i)]
+
+    def orbit_at(self, value: float) -> list:
+        """The orbits of the branch at exactly ``value`` of the parameter (one per crossing:
+        a branch that folds crosses a value more than once), solved there from the two branch
+        points around it."""
+        spec = self._spec
+        value = float(value)
+        q = spec.q_of(value)
+        vals = self.points["value"].to_numpy()
+        out = []
+        for i in range(len(vals) - 1):
+            a, b = self.orbits[i], self.orbits[i + 1]
+            if (vals[i] - value) * (vals[i + 1] - value) > 0 or vals[i] == vals[i + 1]:
+                continue
+            if (vals[i + 1] == value and i + 2 < len(vals)
+                    and (vals[i + 2] - value) * (vals[i] - value) < 0):
+                continue  # counted with the next interval
+            if a.kind != b.kind or a.period != b.period or a.n_impacts != b.n_impacts:
+                continue
+            if a.kind == "stick":
+                o = _stick_at(spec, q, _handle(a))
+                if o is not None:
+                    out.append(o)
+                continue
+            f = (value - vals[i]) / (vals[i + 1] - vals[i])
+            t = a.t + f * (b.t - a.t)
+            u = a.u + f * (b.u - a.u)
+            out.append(solve_orbit(spec.params(q), t, u, a.flank, a.period))
+        return out
 
     def cache_key(self) -> str:
         """SHA-256 of the provenance: equal keys, equal results."""
@@ -1199,7 +1219,7 @@ def _w_min(orb: PeriodicOrbit) -> float:
 
 def _tail_mask(orb: PeriodicOrbit) -> np.ndarray:
     """Impacts of the chatter before each stick phase: the run of ever slower impacts on the
-    sticking flank that ends in it."""
+    sticking flank that ends in it (how many the solver resolves depends on ``v_stick``)."""
     mask = np.zeros(orb.n_impacts, dtype=bool)
     T = TWO_PI * orb.period
     for f, ts, _ in orb.stick:
@@ -1207,8 +1227,8 @@ def _tail_mask(orb: PeriodicOrbit) -> np.ndarray:
         if not len(before):
             before = np.nonzero(orb.t - T <= ts)[0]
         k = before[-1] if len(before) else -1
-        prev = math.inf
-        while k >= 0 and orb.flank[k] == f and abs(orb.w[k]) < prev and not mask[k]:
+        prev = 0.0
+        while k >= 0 and orb.flank[k] == f and abs(orb.w[k]) > prev and not mask[k]:
             mask[k] = True
             prev = abs(orb.w[k])
             k -= 1
@@ -1626,7 +1646,7 @@ def _release_roots(params: RattleParams, flank: int) -> np.ndarray:
             out.append(t[i + 1])
             continue
         out.append(brentq(lambda s: flank * (1.0 + p.lam * float(excitation(s, p.h, p.phi, 2))),
-                          t[i], t[i + 1], xtol=1e-15, rtol=4e-16))
+                          t[i], t[i + 1], xtol=1e-15, rtol=1e-15))
     return np.mod(np.array(out), TWO_PI)
 
 
@@ -1719,6 +1739,11 @@ def _stick_event(run: _Run, o_lo: PeriodicOrbit, q_lo: float, o_hi, q_hi: float)
         msg = (f"grazing at {where}: an impact reaches zero relative velocity; beyond, the "
                "orbit loses it (continue_orbit(start=this) restarts by simulation)")
         detail = {"type": "impact", "w": _w_min(o_lo)}
+    elif o_hi is None and not len(_release_roots(spec.params(q_hi), int(o_lo.stick[-1, 0]))):
+        kind = "permanent_contact"
+        msg = (f"permanent contact beyond {where}: the reaction no longer changes sign, the "
+               "gear stays on the tooth (regime A)")
+        detail = {}
     else:
         kind = "sequence_change"
         msg = (f"the orbit that sticks changes at {where}"
@@ -1728,7 +1753,8 @@ def _stick_event(run: _Run, o_lo: PeriodicOrbit, q_lo: float, o_hi, q_hi: float)
     run.add(o_lo, q_lo, kind)
     run.status = kind
     run.message = msg
-    run.bifurcation(kind, q_lo, o_lo, detail, msg, restart=("simulate", None, q_lo, q_hi))
+    run.bifurcation(kind, q_lo, o_lo, detail, msg,
+                    restart=None if kind == "permanent_contact" else ("simulate", None, q_lo, q_hi))
 
 
 # ----- starting and restarting ----------------------------------------------------------------
@@ -2001,7 +2027,7 @@ def continue_orbit(start, param: str | None = None, *, bounds: Sequence[float] |
     }
     return ContinuationResult(param=param, points=points, impacts=impacts,
                               bifurcations=run.bifs, status=run.status, message=run.message,
-                              provenance=provenance, orbits=run.orbits)
+                              provenance=provenance, orbits=run.orbits, _spec=spec)
 
 
 def _close_params(a: RattleParams, b: RattleParams) -> bool:
