@@ -383,6 +383,35 @@ def test_stick_branch_ends_at_permanent_contact_and_at_end_of_sticking():
             assert 0 < stuck[0, 1] - stuck[0, 0] < 1e-3
 
 
+def test_onset_of_sticking_on_an_impact_branch_checked_by_simulation():
+    """Past the end of sticking (r = 0.3, v_stick = 1e-3) the orbit restarted by simulation
+    has impacts only; followed on, its slowest impact on a pushing flank reaches v_stick and
+    the gear sticks there: simulation without and with a stick phase on the two sides."""
+    p = RattleParams(lam=1.05, r=0.3, v_stick=1e-3)
+    o = find_orbit(p)
+    assert o.kind == "stick"
+    up = continue_orbit(o, "lam", bounds=(1.0, 3.0))
+    assert up.status == "stick_end"
+    after = continue_orbit(up.bifurcations[-1], bounds=(1.0, 3.0))
+    assert after.orbits[0].kind == "impact" and after.orbits[0].admissible
+    assert after.status == "stick_onset"
+    b = after.bifurcations[-1]
+    orb = b.orbit
+    k = b.detail["impact"]
+    assert abs(orb.w[k]) == pytest.approx(1e-3, rel=1e-6)
+    assert orb.flank[k] * (1 + b.value * float(excitation(orb.t[k], p.h, p.phi, 2))) > 0
+    travel = np.sign(b.value - after.points["value"].iloc[0])
+    for d, sticks in ((-1e-7, False), (1e-7, True)):
+        lam = b.value + travel * d
+        near = solve_orbit(RattleParams(lam=lam, r=0.3, v_stick=1e-3), orb.t, orb.u, orb.flank,
+                           orb.period)
+        assert (abs(near.w[k]) < 1e-3) == sticks
+        tr = one_period(near)
+        assert (len(tr.stick_intervals) > 0) == sticks
+        if not sticks:
+            assert np.allclose(tr.impact_impulse, np.roll(near.impulse, -1), atol=1e-9)
+
+
 # ----- other parameters, physical units ------------------------------------------------------------
 
 @pytest.mark.parametrize("name,bounds", [("r", (0.55, 0.65)), ("j", (7.0, 8.0)),
