@@ -1015,6 +1015,8 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Convert physical inputs to Λ, j, h_k, φ_k and print both sets.")
     _add_model_options(p)
     p.set_defaults(func=cmd_units)
+    from .continuation_cli import add_parser as add_continue_parser
+    add_continue_parser(sub, [quiet], fmt)
     return parser
 
 

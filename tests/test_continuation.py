@@ -501,3 +501,44 @@ def test_progress_cancel_and_limit():
     assert arrays["points/value"].shape == (7,)
     assert isinstance(res.bifurcations, list)
     assert all(isinstance(b, Bifurcation) for b in res.bifurcations)
+
+
+# ----- the command ------------------------------------------------------------------------------------
+
+def test_cli_continue_writes_branches_bifurcations_and_png(tmp_path, capsys):
+    """``rattle continue`` writes the branch, its impacts and bifurcations, following the
+    period-2 branch; the numbers are those of continue_orbit."""
+    from PIL import Image
+
+    from rattle_core.cli import main
+    out = tmp_path / "c.csv"
+    code = main(["continue", "--lam", "1.0", "--start", "c", "--bounds", "1.0,1.3", "--branches",
+                 "2", "--out", str(out), "--png", str(tmp_path / "c.png"), "-q"])
+    assert code == 0
+    pts = __import__("pandas").read_csv(out)
+    imp = __import__("pandas").read_csv(tmp_path / "c_impacts.csv")
+    bif = __import__("pandas").read_csv(tmp_path / "c_bifurcations.csv")
+    assert set(pts["branch"]) == {0, 1}
+    assert np.allclose(pts.loc[pts.branch == 0, "impulse_max"],
+                       2 * np.pi / pts.loc[pts.branch == 0, "value"], atol=1e-9)
+    pd0 = bif[(bif.branch == 0) & (bif.kind == "period_doubling")]
+    assert len(pd0) == 1 and pd0["value"].iloc[0] == pytest.approx(LAM_PD, abs=1e-8)
+    assert set(imp.loc[imp.branch == 1, "impact"]) == {0, 1}
+    assert (pts.loc[pts.branch == 1, "period"].iloc[1:] == 2).all()
+    with Image.open(tmp_path / "c.png") as im:
+        assert im.size[0] > 500
+    assert capsys.readouterr().out == ""
+
+
+def test_cli_continue_errors_are_one_line(tmp_path, capsys):
+    """Bad arguments and unknown parameters exit 2 with one line; no orbit exits 1."""
+    from rattle_core.cli import main
+    for argv, word in ((["--param", "zeta"], "param"), (["--bounds", "1"], "--bounds"),
+                       (["--param", "rpm"], "physical"), (["--branches", "0"], "--branches"),
+                       (["--direction", "sideways"], "direction")):
+        code = main(["continue", "--out", str(tmp_path / "x.csv"), *argv])
+        err = capsys.readouterr().err
+        assert code == 2 and err.count("\n") == 1 and word in err, (argv, err)
+    code = main(["continue", "--lam", "0.5", "--start", "c", "--out", str(tmp_path / "x.csv")])
+    err = capsys.readouterr().err
+    assert code == 1 and "no one-sided" in err and err.count("\n") == 1
