@@ -607,7 +607,8 @@ class PeriodicOrbit:
     period : int
         Period in forcing periods (each 2π long).
     t : ndarray
-        Impact times over one period, increasing, ``t[0]`` in ``[0, 2π)``.
+        Impact times over one period, increasing (``t[0]`` in ``[0, 2π)`` for a new orbit; along
+        a branch each impact keeps its place in the list, so ``t[0]`` may drift out of it).
     u : ndarray
         Absolute velocity just after each impact, ``ẋ⁺ = ẏ − r w``.
     flank : ndarray of int8
@@ -1074,6 +1075,7 @@ class Bifurcation:
     message: str
     q: float = math.nan
     _restart: Any = None
+    _spec: Any = None
 
     @property
     def multipliers(self) -> np.ndarray:
@@ -1125,7 +1127,12 @@ class ContinuationResult:
         back to its start).
     message : str
     provenance : dict
-        Parameters, start, settings, versions: everything the result depends on.
+        Parameters, start, settings, versions: everything the result depends on (JSON-ready;
+        :meth:`cache_key` hashes it).
+    orbits : list of PeriodicOrbit
+        The orbit at each point (:meth:`orbit`, :meth:`orbit_at`).
+    seconds : float
+        Wall time of the run.
     """
 
     param: str
@@ -1137,6 +1144,7 @@ class ContinuationResult:
     provenance: dict
     orbits: list = dataclasses.field(default_factory=list, repr=False)
     _spec: Any = dataclasses.field(default=None, repr=False)
+    seconds: float = math.nan
 
     @property
     def bifurcation_table(self) -> "pd.DataFrame":
@@ -1394,7 +1402,7 @@ class _Run:
     def bifurcation(self, kind, q, orb, detail, message, restart=None) -> Bifurcation:
         b = Bifurcation(kind=kind, param=self.spec.name, value=self.spec.value_of(q),
                         point=max(len(self.rows) - 1, 0), orbit=orb, detail=detail,
-                        message=message, q=float(q), _restart=restart)
+                        message=message, q=float(q), _restart=restart, _spec=self.spec)
         self.bifs.append(b)
         return b
 
@@ -1954,10 +1962,8 @@ def continue_orbit(start, param: str | None = None, *, bounds: Sequence[float] |
     ds_min = check_range("ds_min", ds_min, 0.0, ds, lo_open=True)
     max_points = int(check_range("max_points", max_points, 1, MAX_POINTS))
     if isinstance(start, Bifurcation):
-        spec = start._restart[1].spec if start._restart[1] is not None else \
-            _Param.make(param, params0, physical if physical is not None else None)
-        if physical is None and spec.physical is not None:
-            physical = spec.physical
+        spec = start._spec
+        physical = spec.physical
     else:
         spec = _Param.make(param, params0, physical)
         if physical is not None and param in ("rpm", "drag_torque"):
@@ -2023,11 +2029,11 @@ def continue_orbit(start, param: str | None = None, *, bounds: Sequence[float] |
                      "direction": direction, "ds": ds, "ds_min": ds_min, "ds_max": ds_max,
                      "max_points": max_points},
         "solver_version": SOLVER_VERSION, "continuation_version": CONTINUATION_VERSION,
-        "seconds": time.perf_counter() - t_start,
     }
     return ContinuationResult(param=param, points=points, impacts=impacts,
                               bifurcations=run.bifs, status=run.status, message=run.message,
-                              provenance=provenance, orbits=run.orbits, _spec=spec)
+                              provenance=provenance, orbits=run.orbits, _spec=spec,
+                              seconds=time.perf_counter() - t_start)
 
 
 def _close_params(a: RattleParams, b: RattleParams) -> bool:

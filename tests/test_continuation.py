@@ -273,6 +273,13 @@ def test_grazing_found_where_min_gap_crosses_zero_checked_by_simulation(grazing_
     after = solve_orbit(RattleParams(lam=lam_g + d), guess.t, guess.u, guess.flank, 1)
     assert before.admissible and before.gap_min > 0
     assert not after.admissible and after.gap_min < 0
+    # located to 1e-8: where the event search starts to see the extra contact
+    lo, hi = lam_g - 1e-6, lam_g + 1e-6
+    while hi - lo > 1e-11:
+        mid = 0.5 * (lo + hi)
+        ok = solve_orbit(RattleParams(lam=mid), guess.t, guess.u, guess.flank, 1).admissible
+        lo, hi = (mid, hi) if ok else (lo, mid)
+    assert lo == pytest.approx(lam_g, abs=1e-8)
     tr = one_period(before, at=1e-4)
     assert len(tr.impact_t) == 1  # only the orbit's own impact, at the end of the period
     assert tr.impact_t[0] == pytest.approx(before.t[0] + 2 * np.pi, abs=1e-8)
@@ -493,6 +500,9 @@ def test_progress_cancel_and_limit():
     assert seen[:5] == [(i, 200) for i in range(1, 6)]
     res = continue_orbit(o, "lam", bounds=(0.9, 3.0), max_points=7, cancel=lambda: False)
     assert res.status == "max_points" and len(res.points) == 7 and "max_points" in res.message
+    again = continue_orbit(o, "lam", bounds=(0.9, 3.0), max_points=7)
+    assert again.cache_key() == res.cache_key()
+    assert np.array_equal(again.points["value"], res.points["value"])
     prov = res.provenance
     assert prov["param"] == "lam" and prov["settings"]["max_points"] == 7
     assert prov["continuation_version"] == cont.CONTINUATION_VERSION
@@ -542,3 +552,14 @@ def test_cli_continue_errors_are_one_line(tmp_path, capsys):
     code = main(["continue", "--lam", "0.5", "--start", "c", "--out", str(tmp_path / "x.csv")])
     err = capsys.readouterr().err
     assert code == 1 and "no one-sided" in err and err.count("\n") == 1
+
+
+def test_start_from_parameters_simulates_first():
+    """``continue_orbit(RattleParams)`` starts from the orbit a simulation settles on."""
+    res = continue_orbit(RattleParams(lam=3.3), "lam", bounds=(3.3, 3.5), max_points=20)
+    assert res.status == "bound"
+    assert res.orbit(0).n_impacts == 2 and res.points["stable"].all()
+    (o,) = res.orbit_at(3.4)
+    assert o.params.lam == 3.4 and o.residual < 1e-12
+    assert np.allclose(np.sort(o.impulse), np.sort(find_orbit(RattleParams(lam=3.4)).impulse),
+                       atol=1e-10)
