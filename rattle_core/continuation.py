@@ -37,14 +37,16 @@ there for completeness and reports nothing.
 **Stick phases.**  A gear that sticks to a tooth leaves it where the reaction ``R̃ = 1 + Λ ÿ``
 changes sign, a phase that depends on the parameters only.  The orbit after a release is
 therefore the same whatever happened before: the return map is locally constant, its Jacobian
-is zero and both multipliers are exactly 0 (superstable).  Newton's method is neither needed
-nor possible there (the chatter before sticking is an infinite impact sequence).  A stick
+is zero and both multipliers are exactly 0 (superstable).  Newton's method is not needed
+there, nor a fit (the chatter before sticking is an infinite impact sequence): a stick
 orbit is computed exactly instead: from a release, ``simulate`` runs until the gear sticks
 and releases again, until a release repeats.  Such orbits have no folds and no flip or
 torus bifurcations; they are followed in natural-parameter steps, and they end where their
 impact pattern changes (a grazing flight) or where the stick phase shrinks to nothing.  As in
 the solver, the stick phase starts at the first contact slower than ``v_stick``, which ends
-the chatter (the exact model's accumulation point is a few ``v_stick``-sized steps later).
+the chatter (the rest of the exact model's chatter would take a time of order ``v_stick``).
+How many chatter impacts the solver resolves above ``v_stick`` changes along such a branch;
+the chatter before a stick phase counts as one element of the impact pattern.
 
 **Pseudo-arclength continuation.**  With the parameter ``p`` added to the unknowns, the
 solutions form curves.  From a point and its unit tangent ``τ`` (the null vector of
@@ -65,7 +67,9 @@ is located by the Illinois variant of regula falsi along the arclength, to about
 parameter.  At a period doubling the branch of the doubled orbit is tangent to the critical
 eigenvector: the doubled system is started there along that direction.  At a grazing the
 branch stops, and :func:`continue_orbit` can restart from the reported point with the new
-impact sequence (an impact inserted at the touching point, or removed).
+impact sequence (an impact inserted at the touching point, or removed): of the two directions
+the new branch can leave in, the one whose orbit the event search accepts.  After the onset or
+end of sticking the restart is a simulation from the old orbit, just beyond the event.
 """
 from __future__ import annotations
 
@@ -522,6 +526,9 @@ class _Param:
                              f"{', '.join(PARAMETERS)} (K = 1..32)") from None
         if kind in ("h", "phi"):
             base = base.with_value(name, base.get(name))
+            if kind == "phi" and base.amplitudes[k - 1] == 0.0:
+                raise ValueError(f"param = {name!r} has no effect while h{k} = 0 (harmonic {k} "
+                                 f"is absent); give h{k} > 0 first")
             return cls(name, _KIND_H if kind == "h" else _KIND_PHI, k - 1, base, None)
         return cls(name, {"lam": _KIND_LAM, "r": _KIND_R, "j": _KIND_J}[kind], 0, base, None)
 
@@ -577,9 +584,6 @@ class _Param:
         if self.kind == _KIND_H:
             return b.with_value(f"h{k}", float(q))
         return b.with_value(f"phi{k}", math.degrees(q))
-
-    def with_base(self, params: RattleParams) -> "_Param":
-        return dataclasses.replace(self, base=params)
 
     def q_range(self) -> tuple[float, float]:
         """Allowed internal values (the model's own ranges)."""
@@ -735,7 +739,7 @@ class PeriodicOrbit:
                 f"{'stable' if self.stable else 'unstable'} (multipliers {mu})")
 
 
-def _arrays(params: RattleParams, kind: int = _KIND_LAM, kidx: int = 0):
+def _arrays(params: RattleParams):
     return (float(params.lam), float(params.r), float(params.j),
             np.ascontiguousarray(params.h), np.ascontiguousarray(params.phi))
 
@@ -1334,16 +1338,6 @@ class _Branch:
         return _impact_orbit(self.spec.params(X[-1]), X[:-1].copy(), self.fl, self.n)
 
 
-def _tests(orb: PeriodicOrbit, v_stick: float) -> dict:
-    """Test functions of one point (see the module docstring)."""
-    S = orb.monodromy
-    tr = float(np.trace(S))
-    det = float(np.linalg.det(S))
-    v_eff = max(v_stick, V_FLOOR)
-    return {"pd": 1.0 + tr + det, "ns": det - 1.0, "ns_ok": abs(tr) < 2.0,
-            "fold": 1.0 - tr + det, "gap": orb.gap_min, "w": _w_min(orb) - v_eff}
-
-
 class _Run:
     """State of one :func:`continue_orbit` call: the points so far and what was found."""
 
@@ -1478,9 +1472,6 @@ def _locate(br: _Branch, X0, tau0, h_hi, f0, f1, fn, tol):
     return X_best, f_best
 
 
-_EVENT_TESTS = ("fold", "pd", "ns", "gap", "w")
-
-
 def _follow(run: _Run, br: _Branch, X, tau, ds, ds_min, ds_max, first_event: str = ""):
     """Pseudo-arclength continuation of an impact orbit from ``X`` along ``tau``."""
     spec = run.spec
@@ -1517,8 +1508,9 @@ def _follow(run: _Run, br: _Branch, X, tau, ds, ds_min, ds_max, first_event: str
             if np.isfinite(tests[key]) and np.isfinite(t_new[key]) and \
                     (tests[key] > 0) != (t_new[key] > 0):
                 found.append(key)
+        # (at r = 1 every orbit has det M = 1: only rounding would change the sign)
         if (tests["ns"] > 0) != (t_new["ns"] > 0) and abs(tests["tr"]) < 2.0 and \
-                abs(t_new["tr"]) < 2.0:
+                abs(t_new["tr"]) < 2.0 and min(abs(tests["ns"]), abs(t_new["ns"])) > 1e-9:
             found.append("ns")
         located = []
         for key in found:
@@ -1878,8 +1870,7 @@ def _start(run: _Run, spec: _Param, orb: PeriodicOrbit, q: float, sgn: float, ds
     if orb.kind == "stick":
         _follow_stick(run, orb, q, sgn * ds, ds_min, ds_max, event)
         return
-    br = _Branch(spec.with_base(orb.params) if spec.physical is None else spec, orb.flank,
-                 orb.period)
+    br = _Branch(spec, orb.flank, orb.period)
     X = np.append(_pack(orb.t, orb.u), q)
     prev = np.zeros(len(X))
     prev[-1] = sgn

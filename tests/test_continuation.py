@@ -563,3 +563,19 @@ def test_start_from_parameters_simulates_first():
     assert o.params.lam == 3.4 and o.residual < 1e-12
     assert np.allclose(np.sort(o.impulse), np.sort(find_orbit(RattleParams(lam=3.4)).impulse),
                        atol=1e-10)
+
+
+def test_phase_continuation_repeats_every_360_degrees():
+    """φ2 is an angle: continued over two turns, the bifurcations of the first turn recur
+    360° later, to 1e-8 (each located independently); φ2 without h2 is refused."""
+    start = find_orbit(RattleParams(lam=3.3, amplitudes=(1.0, 0.1), phases_deg=(0.0, -180.0)))
+    res = continue_orbit(start, "phi2", bounds=(-360.0, 360.0), max_points=2000)
+    assert res.status == "bound"
+    vals = sorted(b.value for b in res.bifurcations)
+    assert len(vals) >= 2 and len(vals) % 2 == 0
+    first = [v for v in vals if v < 0.0]
+    second = [v for v in vals if v >= 0.0]
+    assert len(first) == len(second)
+    assert np.allclose(np.array(second) - np.array(first), 360.0, atol=1e-8)
+    with pytest.raises(ValueError, match="h2"):
+        continue_orbit(find_orbit(RattleParams(lam=3.3)), "phi2")
