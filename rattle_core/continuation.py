@@ -1421,6 +1421,15 @@ def _light(br: _Branch, X, v_stick: float) -> dict:
             "gap": float(np.min(gmin)), "w": float(np.min(-br.fl * w)) - max(v_stick, V_FLOOR)}
 
 
+def _tests_of(orb: PeriodicOrbit, v_stick: float) -> dict:
+    """The test functions of :func:`_light`, from an orbit already built."""
+    S = orb.monodromy
+    tr = S[0, 0] + S[1, 1]
+    det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
+    return {"pd": 1.0 + tr + det, "ns": det - 1.0, "fold": 1.0 - tr + det, "tr": tr,
+            "gap": orb.gap_min, "w": float(np.min(-orb.flank * orb.w)) - max(v_stick, V_FLOOR)}
+
+
 def _admissible_sign(br: _Branch, X, v_stick: float) -> float:
     lam, r, j, h, phi = br._at(X[-1])
     m = len(br.fl)
@@ -1478,7 +1487,7 @@ def _follow(run: _Run, br: _Branch, X, tau, ds, ds_min, ds_max, first_event: str
     vs = run.v_stick
     orb = br.orbit(X)
     run.add(orb, X[-1], first_event)
-    tests = _light(br, X, vs)
+    tests = _tests_of(orb, vs)
     X_start = X.copy()
     tol = LOCATE_TOL
     while not run.full():
@@ -1498,8 +1507,9 @@ def _follow(run: _Run, br: _Branch, X, tau, ds, ds_min, ds_max, first_event: str
                                f"{spec.name} = {spec.value_of(X[-1]):.10g}")
                 return
             continue
-        t_new = _light(br, X_new, vs)
-        ok = _admissible_sign(br, X_new, vs) > 0
+        orb_new = br.orbit(X_new)
+        t_new = _tests_of(orb_new, vs)
+        ok = orb_new.admissible
         # events between X and X_new, located along the arclength
         found = []
         if tau[-1] * tau_new[-1] < 0.0:
@@ -1550,13 +1560,12 @@ def _follow(run: _Run, br: _Branch, X, tau, ds, ds_min, ds_max, first_event: str
             return
         if not ok:
             # inadmissible without a located event: stop rather than follow a virtual orbit
-            run.add(br.orbit(X_new), X_new[-1])
+            run.add(orb_new, X_new[-1])
             run.status = "inadmissible"
             run.message = (f"the orbit stopped being an orbit of the model near {spec.name} = "
-                           f"{spec.value_of(X_new[-1]):.10g}: {br.orbit(X_new).reason}")
+                           f"{spec.value_of(X_new[-1]):.10g}: {orb_new.reason}")
             return
-        X, tau, tests = X_new, tau_new, t_new
-        orb = br.orbit(X)
+        X, tau, tests, orb = X_new, tau_new, t_new, orb_new
         run.add(orb, X[-1])
         if len(run.rows) > 10 and np.linalg.norm(X - X_start) < 0.5 * ds:
             run.status = "closed"
