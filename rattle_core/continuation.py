@@ -1494,6 +1494,14 @@ def _follow(run: _Run, br: _Branch, X, tau, ds, ds_min, ds_max, first_event: str
         X_new, it = br.correct(X + ds * tau, tau)
         if X_new is not None and np.linalg.norm(X_new - X) > 2.0 * ds:
             X_new = None
+        at_bound = False
+        if X_new is not None and not run.q_lo <= X_new[-1] <= run.q_hi:
+            # land on the bound instead: the point there, by Newton at the bound's value
+            qb = run.q_hi if X_new[-1] > run.q_hi else run.q_lo
+            frac = (qb - X[-1]) / (X_new[-1] - X[-1])
+            zb, _ = br.solve_at(X[:-1] + frac * (X_new[:-1] - X[:-1]), qb)
+            X_new = None if zb is None else np.append(zb, qb)
+            at_bound = X_new is not None
         tau_new = None
         if X_new is not None:
             tau_new = br.tangent(X_new[:-1], X_new[-1], tau)
@@ -1523,6 +1531,7 @@ def _follow(run: _Run, br: _Branch, X, tau, ds, ds_min, ds_max, first_event: str
                 abs(t_new["tr"]) < 2.0 and min(abs(tests["ns"]), abs(t_new["ns"])) > 1e-9:
             found.append("ns")
         located = []
+        h_new = float(tau @ (X_new - X))
         for key in found:
             fn = (lambda Y, k=key: _light(br, Y, vs)[k])
             if key == "fold":
@@ -1531,11 +1540,12 @@ def _follow(run: _Run, br: _Branch, X, tau, ds, ds_min, ds_max, first_event: str
                 f0, f1 = tau[-1], tau_new[-1]
             else:
                 f0, f1 = tests[key], t_new[key]
-            Xe, fe = _locate(br, X, tau, ds, f0, f1, fn, tol)
+            Xe, fe = _locate(br, X, tau, h_new, f0, f1, fn, tol)
             if Xe is not None:
                 located.append((float(np.linalg.norm(Xe - X)), key, Xe))
         if not ok and not any(k in ("gap", "w") for _, k, _ in located):
-            Xe, _ = _locate(br, X, tau, ds, 1.0, -1.0, lambda Y: _admissible_sign(br, Y, vs), tol)
+            Xe, _ = _locate(br, X, tau, h_new, 1.0, -1.0, lambda Y: _admissible_sign(br, Y, vs),
+                            tol)
             if Xe is not None:
                 located.append((float(np.linalg.norm(Xe - X)), "contact", Xe))
         located.sort(key=lambda e: e[0])
@@ -1548,16 +1558,6 @@ def _follow(run: _Run, br: _Branch, X, tau, ds, ds_min, ds_max, first_event: str
                 break
         if stop:
             return
-        # the bound
-        if not (run.q_lo <= X_new[-1] <= run.q_hi):
-            qb = run.q_hi if X_new[-1] > run.q_hi else run.q_lo
-            frac = (qb - X[-1]) / (X_new[-1] - X[-1])
-            zb, _ = br.solve_at(X[:-1] + frac * (X_new[:-1] - X[:-1]), qb)
-            if zb is not None:
-                run.add(br.orbit(np.append(zb, qb)), qb)
-            run.status = "bound"
-            run.message = f"reached the bound {spec.name} = {spec.value_of(qb):.10g}"
-            return
         if not ok:
             # inadmissible without a located event: stop rather than follow a virtual orbit
             run.add(orb_new, X_new[-1])
@@ -1567,6 +1567,10 @@ def _follow(run: _Run, br: _Branch, X, tau, ds, ds_min, ds_max, first_event: str
             return
         X, tau, tests, orb = X_new, tau_new, t_new, orb_new
         run.add(orb, X[-1])
+        if at_bound:
+            run.status = "bound"
+            run.message = f"reached the bound {spec.name} = {spec.value_of(X[-1]):.10g}"
+            return
         if len(run.rows) > 10 and np.linalg.norm(X - X_start) < 0.5 * ds:
             run.status = "closed"
             run.message = "the branch came back to its first point (a closed curve)"
