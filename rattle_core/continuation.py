@@ -1202,12 +1202,30 @@ class ContinuationResult:
         return canonical_hash(self.provenance)
 
     def arrays(self) -> dict:
-        """Plain arrays of the points, impacts and bifurcations (for caches and ``np.savez``)."""
-        out = {f"points/{c}": self.points[c].to_numpy() for c in self.points.columns}
-        out.update({f"impacts/{c}": self.impacts[c].to_numpy() for c in self.impacts.columns})
-        bt = self.bifurcation_table
-        out.update({f"bifurcations/{c}": bt[c].to_numpy() for c in bt.columns})
+        """Plain arrays of the points, impacts and bifurcations, keyed ``table/column``: numbers
+        and fixed-width strings only, so ``np.savez`` stores them and ``np.load`` reads them
+        back with ``allow_pickle=False`` (see :meth:`tables`)."""
+        out = {}
+        for name, df in (("points", self.points), ("impacts", self.impacts),
+                         ("bifurcations", self.bifurcation_table)):
+            for c in df.columns:
+                col = df[c].to_numpy()
+                if col.dtype == object:
+                    col = np.array(["" if v is None or (isinstance(v, float) and math.isnan(v))
+                                    else str(v) for v in col], dtype=str)
+                out[f"{name}/{c}"] = col
         return out
+
+    @staticmethod
+    def tables(arrays) -> dict:
+        """The DataFrames ``points``, ``impacts`` and ``bifurcations`` back from :meth:`arrays`
+        (or from an ``np.load`` of them)."""
+        import pandas as pd
+        out: dict = {"points": {}, "impacts": {}, "bifurcations": {}}
+        for key in arrays.keys():
+            name, col = key.split("/", 1)
+            out[name][col] = arrays[key]
+        return {name: pd.DataFrame(cols) for name, cols in out.items()}
 
 
 POINT_COLUMNS = ["point", "value", "q", "kind", "period", "n_impacts", "n_active", "n_reverse",

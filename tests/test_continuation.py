@@ -579,3 +579,16 @@ def test_phase_continuation_repeats_every_360_degrees():
     assert np.allclose(np.array(second) - np.array(first), 360.0, atol=1e-8)
     with pytest.raises(ValueError, match="h2"):
         continue_orbit(find_orbit(RattleParams(lam=3.3)), "phi2")
+
+
+def test_result_arrays_survive_npz_without_pickle(tmp_path, c_branch):
+    """The arrays of a result load back with allow_pickle=False into the same tables."""
+    path = tmp_path / "branch.npz"
+    np.savez(path, **c_branch.arrays())
+    with np.load(path, allow_pickle=False) as data:
+        back = cont.ContinuationResult.tables(data)
+    assert np.array_equal(back["points"]["value"], c_branch.points["value"])
+    assert back["points"]["kind"].tolist() == c_branch.points["kind"].tolist()
+    assert np.array_equal(back["impacts"]["impulse"], c_branch.impacts["impulse"])
+    assert back["bifurcations"]["kind"].tolist() == ["period_doubling"]
+    assert back["bifurcations"]["value"].iloc[0] == c_branch.bifurcations[0].value
