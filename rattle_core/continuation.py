@@ -427,7 +427,9 @@ def _inspect(z, fl, n, lam, r, j, h, phi, v_stick, check, gmin, gs, gwall, conta
         if not fl[ip] * w < 0.0:
             code = code if code != ADMISSIBLE else _BAD_DIRECTION
             continue
-        if abs(w) < v_eff:
+        if abs(w) < v_eff and fl[ip] * (1.0 + lam * b2) > 0.0:
+            # on a pushing wall the model ends the rebounds there: the gear sticks (on a
+            # pulling wall it leaves at once, within r·v_stick of the bounce)
             code = code if code != ADMISSIBLE else _TOO_SLOW
         leave = 0
         if r == 0.0:
@@ -1433,10 +1435,21 @@ def _light(br: _Branch, X, v_stick: float) -> dict:
     gw = np.empty(m, dtype=np.int64)
     contact = np.empty(m)
     _inspect(z, br.fl, br.n, lam, r, j, h, phi, v_stick, False, gmin, gs, gw, contact)
+    tests = _slow_tests(z[0::2], br.fl, w, lam, h, phi, v_stick)
     tr = S[0, 0] + S[1, 1]
     det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
-    return {"pd": 1.0 + tr + det, "ns": det - 1.0, "fold": 1.0 - tr + det, "tr": tr,
-            "gap": float(np.min(gmin)), "w": float(np.min(-br.fl * w)) - max(v_stick, V_FLOOR)}
+    tests.update(pd=1.0 + tr + det, ns=det - 1.0, fold=1.0 - tr + det, tr=tr,
+                 gap=float(np.min(gmin)))
+    return tests
+
+
+def _slow_tests(t, fl, w, lam, h, phi, v_stick) -> dict:
+    """Grazing impact (``w``: slowest impact, zero when an impact grazes); for the onset of
+    sticking, each impact's speed ``−σw`` and the reaction ``σR̃`` of its wall."""
+    from .excitation import excitation
+    speed = -fl * w
+    react = fl * (1.0 + lam * excitation(t, h, phi, 2))
+    return {"w": float(np.min(speed)), "speed": speed, "react": react}
 
 
 def _tests_of(orb: PeriodicOrbit, v_stick: float) -> dict:
@@ -1444,8 +1457,10 @@ def _tests_of(orb: PeriodicOrbit, v_stick: float) -> dict:
     S = orb.monodromy
     tr = S[0, 0] + S[1, 1]
     det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
-    return {"pd": 1.0 + tr + det, "ns": det - 1.0, "fold": 1.0 - tr + det, "tr": tr,
-            "gap": orb.gap_min, "w": float(np.min(-orb.flank * orb.w)) - max(v_stick, V_FLOOR)}
+    p = orb.params
+    tests = _slow_tests(orb.t, orb.flank, orb.w, p.lam, p.h, p.phi, v_stick)
+    tests.update(pd=1.0 + tr + det, ns=det - 1.0, fold=1.0 - tr + det, tr=tr, gap=orb.gap_min)
+    return tests
 
 
 def _admissible_sign(br: _Branch, X, v_stick: float) -> float:
@@ -1544,6 +1559,10 @@ def _follow(run: _Run, br: _Branch, X, tau, ds, ds_min, ds_max, first_event: str
             if np.isfinite(tests[key]) and np.isfinite(t_new[key]) and \
                     (tests[key] > 0) != (t_new[key] > 0):
                 found.append(key)
+        # an impact slowing through v_stick: the onset of sticking if its wall pushes there
+        v_eff = max(vs, V_FLOOR)
+        for k in np.nonzero((tests["speed"] >= v_eff) != (t_new["speed"] >= v_eff))[0]:
+            found.append(("st", int(k)))
         # (at r = 1 every orbit has det M = 1: only rounding would change the sign)
         if (tests["ns"] > 0) != (t_new["ns"] > 0) and abs(tests["tr"]) < 2.0 and \
                 abs(t_new["tr"]) < 2.0 and min(abs(tests["ns"]), abs(t_new["ns"])) > 1e-9:
@@ -1556,12 +1575,23 @@ def _follow(run: _Run, br: _Branch, X, tau, ds, ds_min, ds_max, first_event: str
                 def fn(Y):
                     return br.tangent(Y[:-1], Y[-1], tau)[-1]
                 f0, f1 = tau[-1], tau_new[-1]
+            elif isinstance(key, tuple):
+                k = key[1]
+
+                def fn(Y, k=k):
+                    return _light(br, Y, vs)["speed"][k] - v_eff
+                f0, f1 = tests["speed"][k] - v_eff, t_new["speed"][k] - v_eff
             else:
                 f0, f1 = tests[key], t_new[key]
             Xe, fe = _locate(br, X, tau, h_new, f0, f1, fn, tol)
-            if Xe is not None:
-                located.append((float(np.linalg.norm(Xe - X)), key, Xe))
-        if not ok and not any(k in ("gap", "w") for _, k, _ in located):
+            if Xe is None:
+                continue
+            if isinstance(key, tuple):
+                if _light(br, Xe, vs)["react"][key[1]] <= 0.0:
+                    continue  # a pulling wall: the gear leaves at once, no sticking
+                key = "st"
+            located.append((float(np.linalg.norm(Xe - X)), key, Xe))
+        if not ok and not any(k in ("gap", "w", "st") for _, k, _ in located):
             Xe, _ = _locate(br, X, tau, h_new, 1.0, -1.0, lambda Y: _admissible_sign(br, Y, vs),
                             tol)
             if Xe is not None:
@@ -1633,14 +1663,17 @@ def _event(run: _Run, br: _Branch, key: str, Xe, tau) -> bool:
                                             "time": float(tg), "gap": float(orb.gap_min)},
                         run.message, restart=("insert", br, Xe, tau))
         return True
-    # an impact reaches the slowest speed the model resolves
-    w = -orb.flank * orb.w
-    k = int(np.argmin(w))
+    # an impact slows to zero (grazing), or on a pushing wall to v_stick (sticking)
     from .excitation import excitation
     p = orb.params
-    react = orb.flank[k] * (1.0 + p.lam * float(excitation(orb.t[k], p.h, p.phi, 2)))
+    speed = -orb.flank * orb.w
+    react = orb.flank * (1.0 + p.lam * excitation(orb.t, p.h, p.phi, 2))
+    if key == "st":
+        k = int(np.argmin(np.where(react > 0.0, speed, np.inf)))
+    else:
+        k = int(np.argmin(speed))
     side = "active" if orb.flank[k] == 1 else "reverse"
-    if react > 0.0:
+    if key == "st":
         run.add(orb, q, "stick_onset")
         run.status = "stick_onset"
         run.message = (f"onset of sticking at {where}: impact {k} on the pushing {side} flank "

@@ -305,6 +305,25 @@ def test_grazing_restart_gains_an_impact(grazing_run):
     assert np.allclose(np.sort(tr.impact_impulse), np.sort(first.impulse), atol=1e-9)
 
 
+def test_gained_impact_is_lost_at_the_same_grazing(grazing_run):
+    """Followed back, the branch that gained an impact loses it (its speed reaches zero) at the
+    Λ where the old flight touched the wall: two test functions agree to 1e-9.  Restarting
+    without it gives back the one-sided orbit, Ĩ = 2π/Λ."""
+    g = grazing_run.bifurcations[-1]
+    gained = continue_orbit(g, bounds=(1.0, 6.0), max_points=5)
+    travel = 1 if g.value > gained.points["value"].iloc[-1] else -1
+    back = continue_orbit(gained.orbit(len(gained.points) - 1), "lam", bounds=(1.0, 6.0),
+                          direction=travel)
+    lost = back.bifurcations[-1]
+    assert lost.kind == "grazing" and lost.detail["type"] == "impact"
+    assert lost.value == pytest.approx(g.value, abs=1e-9)
+    assert abs(lost.detail["w"]) < 1e-9
+    again = continue_orbit(lost, bounds=(1.0, 6.0), max_points=10)
+    pts = again.points
+    assert pts["n_impacts"].eq(1).all()
+    assert np.allclose(pts["impulse_max"], 2 * np.pi / pts["value"], atol=1e-9)
+
+
 # ----- a fold between two attractors --------------------------------------------------------------
 
 def test_unstable_orbit_through_fold_separates_two_attractors():
