@@ -118,7 +118,7 @@ _MISSED_CONTACT = 4  # the event search finds another contact first
 _STICKS = 5          # r = 0 on a pushing wall: the gear would stick
 _REASONS = {_BAD_ORDER: "impact times out of order", _BAD_DIRECTION:
             "an impact velocity points out of its wall", _TOO_SLOW:
-            "an impact is slower than v_stick", _MISSED_CONTACT:
+            "an impact on a pushing wall is slower than v_stick (the gear sticks)", _MISSED_CONTACT:
             "a flight meets a wall before its next impact", _STICKS:
             "a plastic impact on a pushing wall sticks"}
 
