@@ -172,10 +172,11 @@ def axis_label(name: str) -> str:
 
 
 def add_command(sub, run: Callable[[argparse.Namespace], int], help: str,
-                *parents: argparse.ArgumentParser) -> argparse.ArgumentParser:
-    """The parser of the subcommand that ``run`` carries out: named after its module, described
-    by its docstring, with ``-q/--quiet`` and the shared option groups ``parents``."""
-    name = run.__module__.rsplit(".", 1)[-1]
+                *parents: argparse.ArgumentParser, name: str | None = None) -> argparse.ArgumentParser:
+    """The parser of the subcommand that ``run`` carries out: named after its module (or
+    ``name``), described by its docstring, with ``-q/--quiet`` and the shared option groups
+    ``parents``."""
+    name = name or run.__module__.rsplit(".", 1)[-1]
     p = sub.add_parser(name, parents=[quiet_parent(), *parents], help=help,
                        description=" ".join((run.__doc__ or help).split()),
                        formatter_class=argparse.HelpFormatter)

@@ -5,7 +5,7 @@ Layers, each importing only those listed before it (``docs/model.md`` is the spe
 
     model     params, excitation, phases, units, engine
     solver    events, kernel, trajectory
-    analysis  sections, classify, overlays, vocabulary, sound
+    analysis  sections, classify, overlays, vocabulary, sound, continuation
     batch     chunks, executor, sweep, maps, plan
     store     files, cache, assets, requests, exports
     paper     cases, figures, evidence, drawing
@@ -17,6 +17,8 @@ from . import jitcache
 jitcache.refresh()
 
 from .analysis.classify import Classification, classify
+from .analysis.continuation import (Bifurcation, ContinuationResult, PeriodicOrbit,
+                                    continue_orbit, find_orbit)
 from .analysis.overlays import contact_boundary, one_sided_impulse
 from .analysis.sections import impact_map, poincare
 from .batch.sweep import SweepResult
@@ -28,4 +30,5 @@ from .solver.trajectory import SOLVER_VERSION, SolverError, Trajectory, simulate
 
 __all__ = ["RattleParams", "Trajectory", "simulate", "excitation", "SolverError", "SOLVER_VERSION",
            "poincare", "impact_map", "classify", "Classification", "contact_boundary",
-           "one_sided_impulse", "sweep", "SweepResult", "units"]
+           "one_sided_impulse", "sweep", "SweepResult", "units", "continue_orbit", "find_orbit",
+           "PeriodicOrbit", "Bifurcation", "ContinuationResult"]

@@ -1,7 +1,8 @@
 """One module per ``rattle`` command, each with ``add_parser(sub, quiet)`` and ``run(args)``.
 
-A new command is a new module here, listed in :data:`COMMANDS` (the order of ``rattle --help``).
+A new command is a new module here (named after the command; ``continue_`` because
+``continue`` is a Python keyword), listed in :data:`COMMANDS` (the order of ``rattle --help``).
 """
-from . import cache, paper, serve, simulate, sound, sweep, units
+from . import cache, continue_, paper, serve, simulate, sound, sweep, units
 
-COMMANDS = (serve, simulate, sweep, sound, paper, units, cache)
+COMMANDS = (serve, simulate, sweep, continue_, sound, paper, units, cache)

@@ -117,3 +117,52 @@ def map_png(path: Path | str, result: Any, xlabel: str, ylabel: str, title: str)
     fig.suptitle(title, fontsize=9)
     fig.tight_layout()
     fig.savefig(path)
+
+
+_BIFURCATION_MARKERS = {"fold": ("o", "fold"), "period_doubling": ("s", "PD"),
+            "neimark_sacker": ("D", "NS"), "grazing": ("^", "graze"),
+            "stick_onset": ("v", "stick on"), "stick_end": ("v", "stick end"),
+            "sequence_change": ("x", "change"), "permanent_contact": ("x", "contact")}
+
+
+def continuation_png(path: Path | str, results: Sequence[Any], xlabel: str, title: str) -> None:
+    """Branches of :func:`~rattle_core.analysis.continuation.continue_orbit`: impulse against
+    the parameter, stable solid, unstable dashed, bifurcations marked and labelled."""
+    fig = agg_figure((9.0, 5.5), dpi=120)
+    ax = fig.subplots()
+    colours = FLANK_COLOURS
+    for res in results:
+        imp = res.impacts
+        pts = res.points
+        # one line per impact slot; a slot is split where the impact sequence changes
+        seg = (pts["n_impacts"].diff().fillna(0) != 0).cumsum().to_numpy()
+        for k in range(int(pts["n_impacts"].max()) if len(pts) else 0):
+            rows = imp[imp["impact"] == k]
+            if rows.empty:
+                continue
+            p_idx = rows["point"].to_numpy()
+            x = rows["value"].to_numpy()
+            y = rows["impulse"].to_numpy()
+            st = rows["stable"].to_numpy(bool)
+            fl = int(np.sign(np.median(rows["flank"])))
+            for s in np.unique(seg[p_idx]):
+                sel = seg[p_idx] == s
+                xs, ys, ss = x[sel], y[sel], st[sel]
+                for stable, style in ((True, "-"), (False, "--")):
+                    yy = np.where(ss == stable, ys, np.nan)
+                    # keep the joins: a point where stability changes belongs to both
+                    edge = np.r_[False, ss[1:] != ss[:-1]] | np.r_[ss[:-1] != ss[1:], False]
+                    yy = np.where(edge, ys, yy)
+                    ax.plot(xs, yy, style, color=colours.get(fl, "k"), lw=1.2)
+        for b in res.bifurcations:
+            marker, label = _BIFURCATION_MARKERS.get(b.kind, ("x", b.kind))
+            for yv in b.orbit.impulse[:8]:
+                ax.plot([b.value], [yv], marker, color="k", ms=5, mfc="none")
+            ax.annotate(label, (b.value, float(np.max(b.orbit.impulse))), fontsize=7,
+                        xytext=(3, 4), textcoords="offset points")
+    ax.axhline(0.0, color="0.6", lw=0.5)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("dimensionless impulse Ĩ (active > 0, reverse < 0)")
+    ax.set_title(f"{title}\nstable solid, unstable dashed", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path)
