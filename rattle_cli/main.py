@@ -9,7 +9,8 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from typing import Sequence
+import threading
+from typing import Any, Callable, Sequence
 
 from rattle_core import SolverError
 
@@ -57,6 +58,38 @@ def _one_line(text: object) -> str:
     return " ".join(str(text).split())
 
 
+def _interruptible(func: Callable[[Any], int], args: argparse.Namespace) -> int:
+    """Run a command on a worker thread, so that Ctrl-C stops it at once.
+
+    A compiled run releases the GIL and does not return to Python until it ends, so a
+    KeyboardInterrupt raised in it would wait for the whole sweep.  The main thread only
+    waits here: it takes the interrupt, says so and ends the process (status 130); files are
+    written atomically, so none is left half-written.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        return func(args)
+    outcome: dict[str, Any] = {}
+
+    def target() -> None:
+        try:
+            outcome["value"] = func(args)
+        except BaseException as exc:  # handed to the main thread, which reports it
+            outcome["error"] = exc
+
+    worker = threading.Thread(target=target, name=f"{PROG}-{args.command}", daemon=True)
+    worker.start()
+    try:
+        while worker.is_alive():
+            worker.join(0.1)
+    except KeyboardInterrupt:
+        print(f"\n{PROG}: interrupted", file=sys.stderr, flush=True)
+        sys.stdout.flush()
+        os._exit(130)
+    if "error" in outcome:
+        raise outcome["error"]
+    return outcome["value"]
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``rattle`` command; returns the exit status (never raises, never a traceback).
 
@@ -74,7 +107,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
-        return int(args.func(args) or 0)
+        if args.command == "serve":  # the server handles Ctrl-C itself, on the main thread
+            return int(args.func(args) or 0)
+        return int(_interruptible(args.func, args) or 0)
     except SystemExit as exc:  # --help and --version
         return exc.code if isinstance(exc.code, int) else 0
     except (CLIError, ValueError) as exc:

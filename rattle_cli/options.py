@@ -88,7 +88,7 @@ _PHYSICAL_DESTS = ("inertia", "radius", "driver_radius", "drag_torque", "backlas
 def add_model_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("dimensionless model", MODEL_HELP)
     g.add_argument("--lam", type=float, metavar="Λ",
-                   help="Λ = m H1 ω²/F, inertia over drag, in (0, 1e4] (default 3.3)")
+                   help="Λ = m H1 ω²/F, inertia over drag, in (1e-6, 1e4] (default 3.3)")
     g.add_argument("--r", type=float, metavar="R",
                    help="coefficient of restitution, in [0, 1] (default 0.65; also in physical units)")
     g.add_argument("--j", type=float, metavar="J", help="backlash / H1, in (0, 1e4] (default 8)")
@@ -105,6 +105,12 @@ def add_model_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--paper-phases", dest="paper_phases", action="store_true",
                    help="read the phases in the paper's convention y = Σ h_k sin(k t + φ_k) "
                         "(converted to the core's cos(k t − φ_k)), e.g. the paper's φ2 = 45°")
+    g.add_argument("--strict", action="store_true",
+                   help="the strict model, without the round-off kicks that otherwise follow a "
+                        "capture decided by rounding: a chaotic run through sticking then repeats "
+                        "a loop chosen by rounding, and its summary says so (default: the "
+                        "attractor under vanishing noise; docs/model.md, 'Sticking erases the "
+                        "past'); simulate, sound and 1-D sweeps")
 
     u = p.add_argument_group("physical units", PHYSICAL_HELP)
     u.add_argument("--inertia", type=float, metavar="KG_M2", help="idle gear inertia J [kg·m²], in (0, 10]")

@@ -496,3 +496,50 @@ def test_serve_passes_the_maps_dask_default(monkeypatch, capsys):
     assert len(seen) == 2
     code, out, _ = run(["serve", "--help"], capsys)
     assert code == 0 and "--scheduler" in out and "--dask" in out and "Dask" in out
+
+
+def test_strict_switch_reaches_simulate_and_sweep(tmp_path, capsys):
+    """--strict runs the strict model: the summary says the loop was chosen by rounding, and
+    the impacts equal simulate(noise=False); without it they equal the default run."""
+    argv = ["simulate", "--lam", "3.3", "--h2", "0.25", "--phi2", "45", "--paper-phases",
+            "--periods", "2000", "--transient", "500", "--impacts", str(tmp_path / "s.csv")]
+    code, out, _ = run(argv + ["--strict"], capsys)
+    assert code == 0 and "not resolvable" in out
+    p = RattleParams.paper(lam=3.3, amplitudes=(1.0, 0.25), phases_deg=(0.0, 45.0))
+    strict = simulate(p, periods=2000, transient=500, noise=False)
+    np.testing.assert_array_equal(pd.read_csv(tmp_path / "s.csv")["impulse"], strict.impact_impulse)
+    code, out, _ = run(argv, capsys)
+    assert code == 0 and "vanishing-noise" in out
+    code, out, _ = run(["sweep", "--lam", "3.3", "--h2", "0.25", "--phi2", "45", "--paper-phases",
+                        "--values", "3.3", "--transient", "300", "--record", "2000", "--strict",
+                        "--out", str(tmp_path / "w.csv"), "--no-png"], capsys)
+    assert code == 0 and "chaos-through-sticking 1 (strict model" in out
+    code, _, err = run(["sweep", "--param", "lam", "--values", "1,2", "--param2", "r",
+                        "--values2", "0.5,0.6", "--strict", "--out", str(tmp_path / "m.csv")], capsys)
+    assert code == 2 and "--strict applies to" in err
+
+
+def test_ctrl_c_stops_a_long_sweep_at_once(tmp_path):
+    """SIGINT during a sweep whose chunks each take tens of seconds ends the command within a
+    few seconds, with status 130 and no output file."""
+    import signal
+    import time
+    out = tmp_path / "long.npz"
+    env = dict(os.environ, RATTLE_CACHE_DIR=str(tmp_path / "cache"))
+    proc = subprocess.Popen([sys.executable, "-m", "rattle_cli", "sweep", "--param", "lam",
+                             "--start", "3", "--stop", "3.5", "--num", "40", "--transient",
+                             "2000000", "--record", "100", "--out", str(out), "--no-cache"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        time.sleep(6.0)  # imports, then well into the first chunk
+        assert proc.poll() is None, proc.communicate()
+        sent = time.perf_counter()
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+        waited = time.perf_counter() - sent
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130 and "interrupted" in err
+    assert waited < 5.0, f"took {waited:.1f} s to stop"
+    assert not out.exists()

@@ -9,6 +9,8 @@ the parameters and settings as JSON in their schema metadata (key ``rattle``).
 from __future__ import annotations
 
 import json
+import os
+import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -28,20 +30,32 @@ TABLE_SUFFIXES = (".csv", ".parquet")
 
 def write_table(df: "pd.DataFrame", path: Path | str, meta: dict | None = None) -> None:
     """Write ``df`` as CSV or Parquet, by the extension of ``path``; ``meta`` goes into Parquet
-    metadata (CSV has no place for it)."""
+    metadata (CSV has no place for it).  The file appears whole or not at all: it is written
+    beside ``path`` and then moved into place, so an interrupted run leaves no half a table."""
     path = Path(path)
-    if path.suffix.lower() == ".csv":
-        df.to_csv(path, index=False)
-        return
-    import pyarrow as pa
-    import pyarrow.parquet as pq
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=path.suffix)
+    os.close(fd)
+    try:
+        if path.suffix.lower() == ".csv":
+            df.to_csv(tmp, index=False)
+        else:
+            import pyarrow as pa
+            import pyarrow.parquet as pq
 
-    table = pa.Table.from_pandas(df, preserve_index=False)
-    if meta is not None:
-        md = dict(table.schema.metadata or {})
-        md[b"rattle"] = json.dumps(meta, default=str).encode()
-        table = table.replace_schema_metadata(md)
-    pq.write_table(table, path)
+            table = pa.Table.from_pandas(df, preserve_index=False)
+            if meta is not None:
+                md = dict(table.schema.metadata or {})
+                md[b"rattle"] = json.dumps(meta, default=str).encode()
+                table = table.replace_schema_metadata(md)
+            pq.write_table(table, tmp)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
 
 
 def impacts_frame(tr: Trajectory, phys: PhysicalParams | None = None) -> "pd.DataFrame":
