@@ -10,7 +10,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-_COMPILED = ("model/excitation.py", "solver/events.py", "solver/kernel.py", "analysis/classify.py",
+_COMPILED = ("model/excitation.py", "solver/events.py", "solver/noise.py", "solver/kernel.py",
+             "analysis/classify.py", "analysis/continuation/shooting.py",
+             "analysis/continuation/stability.py", "analysis/continuation/admissibility.py",
              "batch/chunks.py")
 
 

@@ -27,6 +27,7 @@ import numpy as np
 from numba import njit
 
 from .events import _leave_step, _root_free, _safe_step
+from .noise import KICK, _seed, _uniform
 from ..model.excitation import TWO_PI, _bounds, _y_derivs
 
 CONTACT_TOL = 1e-13
@@ -51,54 +52,6 @@ MIN_EXCURSION_PERIODS = 20
 #: A capture whose excursion amplified perturbations beyond this (natural log of 1e10) was
 #: decided by rounding: double precision no longer resolves the loop (docs/model.md).
 LOG_ROUNDING = 23.025850929940457
-#: Size of a release kick, relative to the excitation's velocity scale ``Σ k h_k``.
-KICK = 1e-12
-
-
-@njit(cache=True, nogil=True)
-def _splitmix(z):
-    """SplitMix64: a counter-based generator, so each kick depends only on (seed, index)."""
-    z = z + np.uint64(0x9E3779B97F4A7C15)
-    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-    return z ^ (z >> np.uint64(31))
-
-
-@njit(cache=True, nogil=True)
-def _seed(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0):
-    """Seed of the release kicks, from the inputs that decide the motion.
-
-    Harmonics with ``h_k = 0`` are skipped, so padding with empty harmonics (as sweeps do) keeps
-    the seed; the run length is left out, so a longer run extends a shorter one.
-    """
-    vals = np.empty(8 + 3 * h.shape[0])
-    vals[0] = lam
-    vals[1] = r
-    vals[2] = j
-    vals[3] = v_stick
-    vals[4] = float(n0)
-    vals[5] = tau0
-    vals[6] = x0
-    vals[7] = v0
-    m = 8
-    for i in range(h.shape[0]):
-        if h[i] != 0.0:
-            vals[m] = i + 1.0
-            vals[m + 1] = h[i]
-            vals[m + 2] = phi[i]
-            m += 3
-    bits = vals[:m].view(np.uint64)
-    z = np.uint64(0x6A09E667F3BCC908)
-    for i in range(m):
-        z = _splitmix(z ^ bits[i])
-    return z
-
-
-@njit(cache=True, nogil=True)
-def _uniform(seed, k):
-    """The k-th number of the stream ``seed``, uniform in (0, 1]."""
-    z = _splitmix(seed + np.uint64(k) * np.uint64(0xD1B54A32D192ED03))
-    return ((z >> np.uint64(11)) + np.uint64(1)) * (1.0 / 9007199254740992.0)
 
 
 @njit(cache=True, nogil=True)
