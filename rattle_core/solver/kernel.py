@@ -176,6 +176,17 @@ def _release(lam, h, cphi, sphi, mb, tau0, smax, sigma):
 
 
 @njit(cache=True, nogil=True)
+def _setup(lam, h, phi, v_stick):
+    """What every event search of one parameter set needs: ``cos φ_k``, ``sin φ_k``, the
+    excitation bounds, ``1/Λ``, the gap bounds ``M₂ = 1/Λ + Σ k² h_k``, ``M₃``, ``M₄`` and the
+    plastic-impact threshold ``max(v_stick, V_FLOOR)``."""
+    mb = _bounds(h)
+    inv_lam = 1.0 / lam
+    v_eff = v_stick if v_stick > V_FLOOR else V_FLOOR
+    return np.cos(phi), np.sin(phi), mb, inv_lam, inv_lam + mb[2], mb[3], mb[4], v_eff
+
+
+@njit(cache=True, nogil=True)
 def _later_or_equal(n, tau, n_ref, tau_ref):
     return n > n_ref or (n == n_ref and tau >= tau_ref)
 
@@ -196,14 +207,7 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
     amplification, natural log) refer to the recording window; ``kicks`` counts the release
     kicks of the whole run (``noise`` on).
     """
-    cphi = np.cos(phi)
-    sphi = np.sin(phi)
-    mb = _bounds(h)
-    inv_lam = 1.0 / lam
-    m2 = inv_lam + mb[2]
-    m3 = mb[3]
-    m4 = mb[4]
-    v_eff = v_stick if v_stick > V_FLOOR else V_FLOOR
+    cphi, sphi, mb, inv_lam, m2, m3, m4, v_eff = _setup(lam, h, phi, v_stick)
 
     n = n0
     tau = tau0

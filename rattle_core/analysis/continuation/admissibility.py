@@ -12,7 +12,7 @@ import numpy as np
 from numba import njit
 
 from ...model.excitation import TWO_PI, _bounds, _y_derivs
-from ...solver.kernel import V_FLOOR, _flight
+from ...solver.kernel import V_FLOOR, _flight, _setup
 from .shooting import _flight_ends
 
 #: A flight's contact found by the event search must agree with the orbit's to this (scaled).
@@ -111,14 +111,7 @@ def _inspect(z, fl, n, lam, r, j, h, phi, v_stick, check, gmin, gs, gwall, conta
     the orbit's (nan when not checked).  Returns the admissibility code (0 admissible).
     """
     m = fl.shape[0]
-    cphi = np.cos(phi)
-    sphi = np.sin(phi)
-    mb = _bounds(h)
-    inv_lam = 1.0 / lam
-    m2 = inv_lam + mb[2]
-    m3 = mb[3]
-    m4 = mb[4]
-    v_eff = v_stick if v_stick > V_FLOOR else V_FLOOR
+    cphi, sphi, mb, inv_lam, m2, m3, m4, v_eff = _setup(lam, h, phi, v_stick)
     code = ADMISSIBLE
     for i in range(m):
         ip, ti, ui, tn, s, (a0, a1, a2, a3, a4), (b0, b1, b2, b3, b4) = _flight_ends(
