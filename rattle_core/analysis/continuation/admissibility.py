@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ...model.excitation import TWO_PI, _bounds, _y_derivs
-from ...solver.kernel import V_FLOOR, _flight, _setup
+from ...model.excitation import TWO_PI, _y_derivs
+from ...solver.kernel import _flight, _setup
 from .shooting import _flight_ends
 
 #: A flight's contact found by the event search must agree with the orbit's to this (scaled).
