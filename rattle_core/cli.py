@@ -406,7 +406,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
     serve = getattr(mod, "serve", None)
     if serve is None:
         raise CLIError("the dashboard (rattle serve) is not available: app.main has no serve()")
-    wanted: dict[str, Any] = {"port": args.port, "address": args.address, "show": args.show}
+    wanted: dict[str, Any] = {"port": args.port, "address": args.address, "show": args.show,
+                              "quiet": args.quiet}
     if args.scheduler is not None and args.dask is not None:
         raise CLIError("give --dask local or --scheduler ADDRESS, not both")
     if args.scheduler is not None:
@@ -424,8 +425,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
     dropped = [f"--{k}" for k in ("scheduler", "dask") if k in wanted and k not in kwargs]
     if dropped:
         raise CLIError(f"{', '.join(dropped)}: this dashboard cannot run maps on Dask")
-    _info(args, f"serving the dashboard on http://{args.address}:{args.port}/ (Ctrl+C stops)")
-    try:
+    try:  # serve() prints the address itself, once the port answers
         serve(**kwargs)
     except KeyboardInterrupt:  # Ctrl+C is how a server is meant to stop
         _info(args, "stopped")
@@ -908,8 +908,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="address to listen on (default localhost; 0.0.0.0 for every interface)")
     p.add_argument("--show", action="store_true", help="open a browser tab")
     d = p.add_argument_group("2-D maps on Dask (default: the server's own cores)",
-                             "The default of the Maps tab's 'Dask scheduler' field, for every "
-                             "session; each session may still change it.")
+                             "Where every session's maps run; no page can change it.")
     d.add_argument("--scheduler", metavar="tcp://HOST:PORT",
                    help="run the dashboard's maps on this Dask scheduler")
     d.add_argument("--dask", choices=("local",),
