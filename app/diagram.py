@@ -28,10 +28,10 @@ from .diagram_data import (RECORD, TRANSIENT, ZOOM_VALUES, Diagram, current_valu
 from .state import ExplorerState
 from .labels import ACTIVE_COLOR, CHAOS_COLOR, MARK_COLOR, ONSET_COLOR, REVERSE_COLOR, num
 from .plots import TOOLS, Zoom, caption, file_stem, padded, save_as
-from .widgets import Choice, later, message, set_value
+from .widgets import Choice, deferred, later, message, set_value
 
 OPTIONS = {"Ĩ vs Λ": "lam", "Ĩ vs φ₂": "phi2"}
-UNITS_OPTIONS = {"Ĩ vs Λ": "lam", "Ĩ vs φ₂": "phi2", "I vs engine speed": "rpm"}
+UNITS_OPTIONS = {"I vs engine speed": "rpm", "Ĩ vs φ₂": "phi2"}
 AXES = {"lam": "Λ", "phi2-paper": "φ₂ [°], the paper's convention (Figure 6)",
         "phi2-core": "φ₂ [°], the core's convention", "rpm": "engine speed [rpm]"}
 PIXELS = (640, 340)
@@ -83,11 +83,13 @@ class DiagramView(pn.viewable.Viewer):
                                       css_classes=["diagram"], linked_axes=False)
         s.param.watch(self._update, ["result", "bif", "phases"])
         s.param.watch(self._on_units, "units")
+        if s.units and s.bif == "lam":  # in physical units Λ runs as engine speed
+            s.bif = "rpm"
         self._update()
 
     def __panel__(self):
         return pn.Column(pn.Row(self.choice, self.overlays, sizing_mode="stretch_width"),
-                         message(self.state, "bif"), self.progress, self.status, self.pane,
+                         message(self.state, "bif"), self.progress, self.status, deferred(self.pane),
                          sizing_mode="stretch_width")
 
     # ----- what to show -------------------------------------------------------------------------
@@ -293,11 +295,11 @@ class DiagramView(pn.viewable.Viewer):
 
     def _on_units(self, event) -> None:
         s = self.state
-        self.choice.widget.options = UNITS_OPTIONS if event.new else OPTIONS
         if event.new and s.bif == "lam":
             s.bif = "rpm"
         elif not event.new and s.bif == "rpm":
             s.bif = "lam"
+        self.choice.widget.options = UNITS_OPTIONS if event.new else OPTIONS
 
 
 def _text(text: str) -> str:

@@ -24,7 +24,7 @@ from .core import excitation
 from .state import ExplorerState
 from .labels import MARK_COLOR, badge_html, metrics_rows, table_html
 from .plots import TOOLS, Zoom, caption, file_stem, padded, save_as, section_points
-from .widgets import Choice, later, message
+from .widgets import Choice, deferred, later, message
 
 SECTION_OPTIONS = {"Poincaré (x, ẋ)": "absolute", "relative (x−y, ẋ−ẏ)": "relative",
                    "impact map": "impact"}
@@ -74,7 +74,8 @@ class SectionView(pn.viewable.Viewer):
         self._update()
 
     def __panel__(self):
-        return pn.Column(self.mode, self.msg, self.pane, sizing_mode="stretch_width")
+        # drawn once the page has loaded, so the first plot (the time history) comes sooner
+        return pn.Column(self.mode, self.msg, deferred(self.pane), sizing_mode="stretch_width")
 
     def _update(self, *_: Any) -> None:
         run = self.state.result

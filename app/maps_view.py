@@ -111,9 +111,11 @@ class MapsView(pn.viewable.Viewer):
         self.pane = pn.pane.HoloViews((self.image * self.marker).opts(
             hv.opts.Overlay(width=640, height=520, framewise=True, hooks=[_name_plot])),
             css_classes=["map-plot"])
-        self._choices = {n: Choice(m, n, {_axis_label(a): a for a in self._axes()}, width=360)
-                         for n in ("x_axis", "y_axis")}
-        self._field = Choice(m, "field", {v: k for k, v in FIELDS.items()}, width=360)
+        self._choices = {n: Choice(m, n, {_axis_label(a): a for a in self._axes()}, select=True,
+                                   sizing_mode="stretch_width") for n in ("x_axis", "y_axis")}
+        self._field = Choice(m, "field", {v: k for k, v in FIELDS.items()}, select=True, width=300)
+        if self.state.units:  # in physical units a map runs against engine speed and drag torque
+            self._set_axes("rpm", "drag_torque")
 
     def __panel__(self):
         m = self.settings

@@ -54,6 +54,12 @@ def set_value(state: Any, name: str, value: Any) -> bool:
     return True
 
 
+def deferred(obj: Any) -> Any:
+    """``obj`` rendered only once the page has loaded (a spinner until then)."""
+    return pn.param.ParamFunction(lambda: obj, defer_load=True, sizing_mode="stretch_width",
+                                  min_height=380)
+
+
 def later(fn: Any, *args: Any) -> None:
     """Run ``fn(*args)`` on the session's next tick (at once without a server).
 
@@ -149,10 +155,11 @@ class Field(pn.viewable.Viewer):
 
 
 class Choice(pn.viewable.Viewer):
-    """A selector or switch parameter: radio buttons (``options``: label → value) or a checkbox."""
+    """A selector or switch parameter: radio buttons or (``select``) a drop-down over ``options``
+    (label → value), or a checkbox when there are no options."""
 
     def __init__(self, state: Any, name: str, options: dict[str, Any] | None = None,
-                 label: str | None = None, **kw: Any):
+                 label: str | None = None, select: bool = False, **kw: Any):
         super().__init__()
         self.state, self.name_ = state, name
         self._syncing = False
@@ -161,6 +168,9 @@ class Choice(pn.viewable.Viewer):
         if options is None:
             self.widget = pn.widgets.Checkbox(label=label or state.param[name].label, value=value,
                                               css_classes=css, **kw)
+        elif select:
+            self.widget = pn.widgets.Select(label=label or state.param[name].label, options=options,
+                                            value=value, css_classes=css, **kw)
         else:
             self.widget = pn.widgets.RadioButtonGroup(options=options, value=value, css_classes=css,
                                                       color="default", **kw)
