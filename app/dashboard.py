@@ -7,6 +7,7 @@ they meet only in the state. :meth:`Dashboard.destroy` runs when the session clo
 """
 from __future__ import annotations
 
+import weakref
 from typing import Any
 
 import panel as pn
@@ -22,6 +23,8 @@ from .units_view import UnitsView
 from .widgets import message
 
 SIDEBAR_WIDTH = 380
+#: Every live dashboard (weakly held): a closed session's must disappear from here.
+LIVE: "weakref.WeakSet[Dashboard]" = weakref.WeakSet()
 
 
 class Dashboard:
@@ -53,6 +56,7 @@ class Dashboard:
             sidebar=[self.controls, self.units], sidebar_width=SIDEBAR_WIDTH,
             main=[message(s, "url"), message(s, "global"), self.tabs],
             header_background="#2c3e50")
+        LIVE.add(self)
 
     def destroy(self) -> None:
         """The session closed: cancel its work and let go of its results."""

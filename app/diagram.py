@@ -27,7 +27,7 @@ from .diagram_data import (RECORD, TRANSIENT, ZOOM_VALUES, Diagram, current_valu
                            from_work, marks, one_sided, request, shipped)
 from .state import ExplorerState
 from .labels import ACTIVE_COLOR, CHAOS_COLOR, MARK_COLOR, ONSET_COLOR, REVERSE_COLOR, num
-from .plots import TOOLS, Zoom, caption, file_stem, padded, save_as
+from .plots import TOOLS, Zoom, weak_hook, caption, file_stem, padded, save_as
 from .widgets import Choice, deferred, later, message, set_value
 
 OPTIONS = {"Ĩ vs Λ": "lam", "Ĩ vs φ₂": "phi2"}
@@ -77,7 +77,7 @@ class DiagramView(pn.viewable.Viewer):
         self.status = pn.pane.HTML("", css_classes=["bif-status"], margin=(0, 10),
                                    sizing_mode="stretch_width")
         plot = (self.points * self.marks * self.marker).opts(
-            hv.opts.Overlay(responsive=True, height=380, hooks=[self._name_plot]),
+            hv.opts.Overlay(responsive=True, height=380, hooks=[weak_hook(self._name_plot)]),
             hv.opts.RGB(tools=[*TOOLS, "tap"], active_tools=["wheel_zoom"]))
         self.pane = pn.pane.HoloViews(plot, sizing_mode="stretch_width", min_height=380,
                                       css_classes=["diagram"], linked_axes=False)

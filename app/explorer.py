@@ -23,7 +23,7 @@ from holoviews.operation.datashader import datashade, dynspread
 from .core import excitation
 from .state import ExplorerState
 from .labels import MARK_COLOR, badge_html, metrics_rows, table_html
-from .plots import TOOLS, Zoom, caption, file_stem, padded, save_as, section_points
+from .plots import TOOLS, Zoom, weak_hook, caption, file_stem, padded, save_as, section_points
 from .widgets import Choice, deferred, later, message
 
 SECTION_OPTIONS = {"Poincaré (x, ẋ)": "absolute", "relative (x−y, ẋ−ẏ)": "relative",
@@ -64,7 +64,7 @@ class SectionView(pn.viewable.Viewer):
         self.tap = hv.streams.Tap(source=self.sparse)
         self.tap.add_subscriber(self._on_tap)
         plot = (self.dense * self.sparse * self.start).opts(
-            hv.opts.Overlay(responsive=True, height=380, hooks=[self._name_plot]),
+            hv.opts.Overlay(responsive=True, height=380, hooks=[weak_hook(self._name_plot)]),
             hv.opts.Points(tools=[*TOOLS, "tap"], active_tools=["wheel_zoom"]))
         self.mode = Choice(self.state, "section", SECTION_OPTIONS, sizing_mode="stretch_width")
         self.msg = message(self.state, "start")

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import weakref
 from typing import Any, Callable
 
 import holoviews as hv
@@ -64,6 +65,21 @@ def save_as(get_stem: Callable[[], str]) -> Callable:
         for tool in plot.state.toolbar.tools:
             if isinstance(tool, SaveTool) and tool.filename != stem:
                 tool.filename = stem
+    return hook
+
+
+def weak_hook(method: Callable) -> Callable:
+    """A HoloViews hook calling a view's ``method`` without keeping the view alive.
+
+    HoloViews keeps the options of every customised element in a process-wide store; a hook
+    that held its view would keep a closed session's views, state and results for ever.
+    """
+    ref = weakref.WeakMethod(method)
+
+    def hook(plot, element) -> None:
+        bound = ref()
+        if bound is not None:
+            bound(plot, element)
     return hook
 
 

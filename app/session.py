@@ -133,6 +133,8 @@ class Session:
         self.jobs = SessionJobs(self.key, doc, pool)
         self.location = location
         self.last_ms = math.nan
+        #: How many simulations this session has run (one per accepted change).
+        self.runs = 0
         self._busy = False
         self._good = self._snapshot()
         self._watcher = self.state.param.watch(self._on_change, list(WATCHED))
@@ -209,6 +211,8 @@ class Session:
             s.say(where, f"{exc}. Showing the last good view.")
             return where
         ms = 1e3 * (time.perf_counter() - t0)
+        self.runs += 1
+        self.last_ms = ms
         s.result = Run(params=params, tr=tr, cls=cls, phys=run_physical(s, params), phases=s.phases,
                        ms=ms)
         return None
@@ -274,7 +278,12 @@ class Session:
                     same = False
                 if not same and not (query[key] == "" and getattr(s, name) is None):
                     fix[key] = _serialize(s, name)
-        if fix:
+        unknown = [k for k in query if k not in set(URL_KEYS.values())]
+        if unknown:  # dropped: the URL says what is in force, nothing else
+            kept = {k: v for k, v in urllib.parse.parse_qsl((search or "")[1:]) if k not in unknown}
+            merged = {**kept, **fix}
+            self.location.search = "?" + urllib.parse.urlencode(merged) if merged else ""
+        elif fix:
             self.location.update_query(**fix)
 
     def _physical_wins(self, search: str) -> None:
