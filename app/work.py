@@ -23,7 +23,8 @@ _clients: dict[str, Any] = {}
 def warm_up() -> None:
     """Load the compiled kernels before the first job (each worker runs this once)."""
     from rattle_core import simulate
-    simulate(RattleParams(lam=3.3, amplitudes=(1.0, 0.25)), periods=5, transient=2)
+    simulate(RattleParams(lam=3.3, amplitudes=(1.0, 0.25), phases_deg=(0.0, 45.0)), periods=5,
+             transient=2)
     diagram(RattleParams(lam=2.0), "lam", np.array([2.0, 2.5]), 2, 2, use_cache=False)
 
 
