@@ -106,11 +106,11 @@ class ContinuationView(pn.viewable.Viewer):
         super().__init__(**params)
         self._key: tuple | None = None
         self._job = None
-        self.button = pn.widgets.Button(name="Continue this orbit", button_type="primary",
+        self.button = pn.widgets.Button(label="Continue this orbit", color="primary",
                                         css_classes=["cont-button"], width=170)
-        self.cancel_button = pn.widgets.Button(name="Cancel", disabled=True, width=80,
+        self.cancel_button = pn.widgets.Button(label="Cancel", disabled=True, width=80,
                                                css_classes=["cont-cancel"])
-        self.clear_button = pn.widgets.Button(name="Hide branch", width=110,
+        self.clear_button = pn.widgets.Button(label="Hide branch", width=110,
                                               css_classes=["cont-clear"])
         self.button.on_click(lambda e: self.start())
         self.cancel_button.on_click(lambda e: self.cancel("Continuation cancelled."))
