@@ -57,6 +57,10 @@ def _named(glyph: str):
     return hook
 
 
+#: A path of one blank point: Bokeh reports an error for a line glyph with no coordinates.
+_BLANK = np.full((1, 2), np.nan)
+
+
 def branch_overlay(branch: Branch | None, name: str) -> hv.Overlay:
     """The branch on the diagram: stable solid, unstable dashed, bifurcations marked and
     labelled (empty elements when there is no branch for diagram ``name``)."""
@@ -64,12 +68,13 @@ def branch_overlay(branch: Branch | None, name: str) -> hv.Overlay:
     ok = branch is not None and branch.name == name
     stable = branch.segments(True) if ok else []
     unstable = branch.segments(False) if ok else []
-    marks = branch.marks if ok else pd.DataFrame(columns=["x", "y", "label", "message"])
-    marks = marks[["x", "y", "label", "message"]].reset_index(drop=True)
+    marks = branch.marks[["x", "y", "label", "message"]].reset_index(drop=True) if ok else None
+    if marks is None or not len(marks):  # one blank row: Bokeh cannot draw empty text columns
+        marks = pd.DataFrame({"x": [np.nan], "y": [np.nan], "label": [""], "message": [""]})
     return hv.Overlay([
-        hv.Path(stable or [np.empty((0, 2))], kdims).opts(
+        hv.Path(stable or [_BLANK], kdims).opts(
             color=BRANCH_COLOR, line_width=2.5, hooks=[_named("cont-stable")]),
-        hv.Path(unstable or [np.empty((0, 2))], kdims).opts(
+        hv.Path(unstable or [_BLANK], kdims).opts(
             color=BRANCH_COLOR, line_width=2, line_dash="dashed", hooks=[_named("cont-unstable")]),
         hv.Points(marks, kdims, ["label", "message"]).opts(
             color="black", fill_color="white", size=9, marker="diamond", line_width=1.5,
@@ -84,13 +89,13 @@ def multipliers_element(branch: Branch | None, value: float) -> hv.Overlay:
     th = np.linspace(0.0, 2.0 * np.pi, 181)
     circle = hv.Curve((np.cos(th), np.sin(th)), "Re μ", "Im μ").opts(color="#7f8c8d", line_width=1)
     point = branch.nearest(value) if branch is not None else None
-    mu = point["multipliers"] if point is not None else np.zeros(0, complex)
+    mu = point["multipliers"] if point is not None else np.array([complex(np.nan, np.nan)])
     stable = point is not None and point["stable"]
     pts = hv.Points((mu.real, mu.imag), ["Re μ", "Im μ"]).opts(
         color=STABLE_COLOR if stable else UNSTABLE_COLOR, size=9, hooks=[_named("cont-multipliers")])
     title = ("Floquet multipliers" if point is None else
              f"μ at {point['x']:.5g} ({'stable' if stable else 'unstable'})")
-    lim = max(1.15, float(np.max(np.abs(mu))) * 1.1 if mu.size else 1.15)
+    lim = max(1.15, float(np.max(np.abs(mu))) * 1.1 if point is not None else 1.15)
     return (circle * pts).opts(hv.opts.Overlay(
         title=title, width=230, height=230, xlim=(-lim, lim), ylim=(-lim, lim),
         data_aspect=1, toolbar=None, fontsize={"title": "9pt"}))

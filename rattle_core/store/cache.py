@@ -193,7 +193,7 @@ def cached_map(kind: str, params: RattleParams, x_name: str, x_values, y_name: s
 
 @dataclasses.dataclass(frozen=True)
 class Entry:
-    """One cache file: its path, kind (``sweep`` or ``map``), size in bytes and last use."""
+    """One cache file: its path, kind (``sweep``, ``map`` or ``cont``, a continued branch), size in bytes and last use."""
 
     path: Path
     kind: str
