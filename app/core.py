@@ -10,6 +10,8 @@ from __future__ import annotations
 from functools import partial
 
 from rattle_core import units
+from rattle_core.analysis.continuation import (CONTINUATION_VERSION, ContinuationResult,
+                                                continue_orbit, find_orbit)
 from rattle_core.analysis.overlays import contact_boundary
 from rattle_core.analysis.sound import (DEFAULT_EXCITATION_HZ, DEFAULT_MODES,
                                         DEFAULT_SAMPLE_RATE, DEFAULT_TAIL, EXCITATION_HZ_RANGE,
@@ -25,9 +27,11 @@ from rattle_core.model.phases import core_to_paper, paper_to_core, paper_to_core
 from rattle_core.model.units import PhysicalParams
 from rattle_core.paper.cases import CASES as PAPER_CASES
 from rattle_core.store.assets import find_asset, list_assets, load_asset
-from rattle_core.store.cache import cached_sweep
+from rattle_core.store.cache import cached, cached_sweep
+from rattle_core.store.files import atomic_savez
 from rattle_core.store.exports import impacts_frame
 from rattle_core.store.requests import run_map
+from rattle_core.solver.trajectory import SOLVER_VERSION
 
 #: Regime letter → meaning, for the letters a classification gives.
 REGIMES = {k: v for k, v in REGIME_MEANING.items() if k != "error"}
@@ -38,7 +42,8 @@ core_phi2_to_paper = partial(core_to_paper, k=2, wrap=False)
 core_to_paper_phases = paper_to_core_phases
 
 __all__ = [
-    "cached_sweep", "find_asset", "list_assets", "load_asset", "contact_boundary", "excitation",
+    "CONTINUATION_VERSION", "ContinuationResult", "SOLVER_VERSION", "continue_orbit",
+    "find_orbit", "atomic_savez", "cached", "cached_sweep", "find_asset", "list_assets", "load_asset", "contact_boundary", "excitation",
     "units", "PhysicalParams", "REGIMES", "TWO_PI", "MAP_PHYSICAL_AXES", "REGIME_CODES",
     "REGIME_COLOURS", "plan_map", "point_params", "run_map", "PAPER_CASES",
     "core_phi2_to_paper", "paper_phi2_to_core", "AMPLITUDE_RANGE", "J_RANGE", "LAM_RANGE",

@@ -12,6 +12,7 @@ from typing import Any
 
 import panel as pn
 
+from .continuation_view import ContinuationView
 from .controls import Controls
 from .diagram import DiagramView
 from .explorer import RegimeView, SectionView
@@ -40,14 +41,16 @@ class Dashboard:
         self.time_history = TimeHistoryView(state=s)
         self.section = SectionView(state=s)
         self.diagram = DiagramView(state=s, jobs=jobs)
+        self.continuation = ContinuationView(state=s, jobs=jobs)
         self.sound = SoundView(state=s)
         self.maps = MapsView(state=s, jobs=jobs)
         self.views = [self.controls, self.units, self.regime, self.time_history, self.section,
-                      self.diagram, self.sound, self.maps]
+                      self.diagram, self.continuation, self.sound, self.maps]
         explorer = pn.Column(
             self.regime,
             pn.Row(self.time_history, self.units.table, sizing_mode="stretch_width"),
-            pn.Row(self.section, self.diagram, sizing_mode="stretch_width"),
+            pn.Row(self.section, pn.Column(self.diagram, self.continuation, sizing_mode="stretch_width"),
+                   sizing_mode="stretch_width"),
             self.sound, sizing_mode="stretch_width")
         self.tabs = pn.Tabs(("Explorer", explorer), ("Maps", self.maps), dynamic=True,
                             sizing_mode="stretch_width", css_classes=["main-tabs"])

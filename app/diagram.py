@@ -25,6 +25,7 @@ from holoviews.operation.datashader import datashade, dynspread
 from . import work
 from .diagram_data import (RECORD, TRANSIENT, ZOOM_VALUES, Diagram, current_value, diagram_key,
                            from_work, marks, one_sided, request, shipped)
+from .continuation_view import branch_overlay
 from .state import ExplorerState
 from .labels import ACTIVE_COLOR, CHAOS_COLOR, MARK_COLOR, ONSET_COLOR, REVERSE_COLOR, num
 from .plots import TOOLS, Zoom, weak_hook, caption, file_stem, padded, save_as
@@ -66,6 +67,8 @@ class DiagramView(pn.viewable.Viewer):
         self.marks = hv.DynamicMap(self._marks, streams=[
             hv.streams.Params(self.state, ["overlays"]), hv.streams.Params(self, ["marks_revision"])])
         self.marker = hv.DynamicMap(self._marker, streams=[hv.streams.Params(self.state, ["result"])])
+        self.branch = hv.DynamicMap(self._branch, streams=[
+            hv.streams.Params(self.state, ["branch"]), hv.streams.Params(self, ["marks_revision"])])
         self.tap = hv.streams.Tap(source=self.points)
         self.tap.add_subscriber(self._on_tap)
         s = self.state
@@ -76,7 +79,7 @@ class DiagramView(pn.viewable.Viewer):
                                                css_classes=["bif-progress"])
         self.status = pn.pane.HTML("", css_classes=["bif-status"], margin=(0, 10),
                                    sizing_mode="stretch_width")
-        plot = (self.points * self.marks * self.marker).opts(
+        plot = (self.points * self.marks * self.branch * self.marker).opts(
             hv.opts.Overlay(responsive=True, height=380, hooks=[weak_hook(self._name_plot)]),
             hv.opts.RGB(tools=[*TOOLS, "tap"], active_tools=["wheel_zoom"]))
         self.pane = pn.pane.HoloViews(plot, sizing_mode="stretch_width", min_height=380,
@@ -231,6 +234,10 @@ class DiagramView(pn.viewable.Viewer):
         layers.append(hv.Path(curves or [np.empty((0, 2))], kdims).opts(
             color="#27ae60", line_width=1.5, line_dash="dotted"))
         return self.zoom.apply(hv.Overlay(layers), xlim, ylim)
+
+    def _branch(self, branch: Any = None, marks_revision: int = 0) -> hv.Overlay:
+        """The continued branch (``state.branch``), drawn by :mod:`app.continuation_view`."""
+        return self.zoom.apply(branch_overlay(branch, self._name), *self._limits())
 
     def _name_plot(self, plot: Any, element: Any) -> None:
         """Title (the parameters, so a saved PNG carries them) and the save tool's file name."""

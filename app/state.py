@@ -181,8 +181,15 @@ class ExplorerState(Said):
     phase2 = param.Number(_EX.phases_deg[1], bounds=PHASE_RANGE_DEG, label="φ₂ (physical)",
                           doc="order-2 phase [°], cos(2ωt − φ₂)")
     solve_for = param.Selector(default="rpm", objects=list(U.SOLVE_FOR), label="a change of Λ moves")
+    # ----- continuation ----------------------------------------------------------------------
+    continuation = Flag(False, label="continued branch",
+                        doc="the orbit found at cont_from, continued over the diagram's range")
+    cont_from = OptionalNumber(None, allow_None=True, bounds=(-1e6, 1e6), label="continued from",
+                               doc="the diagram parameter's value (axis units) where the continued "
+                                   "orbit was found (empty: the current value)")
     # ----- computed, never in the URL ----------------------------------------------------------
     result = param.Parameter(None, precedence=-1, doc="the last good Run")
+    branch = param.Parameter(None, precedence=-1, doc="the continued branch shown (app.branch.Branch)")
 
     def set_phase_convention(self, convention: str) -> None:
         """Show phases in ``convention`` ('paper' or 'core'); the model stays the same."""
@@ -195,9 +202,10 @@ class ExplorerState(Said):
 
 
 #: State parameters → URL query keys.
-URL_KEYS = {n: n for n in ExplorerState.param if n not in ("name", "result", "messages")}
+URL_KEYS = {n: n for n in ExplorerState.param if n not in ("name", "result", "messages", "branch")}
 URL_KEYS.update(inertia="J", radius="Rb", drag_torque="C", backlash_um="b_um", backlash_unit="b_unit",
-                excitation="exc", amp1="a1", amp2="a2", phase2="p2", solve_for="solve")
+                excitation="exc", amp1="a1", amp2="a2", phase2="p2", solve_for="solve",
+                continuation="cont")
 #: Parameters that change the trajectory.
 RUN_KEYS = ("lam", "r", "j", "h2", "phi2", "phases", "harmonics", "v_stick", "periods", "transient",
             "x0", "v0", "t0", "strobe")
