@@ -88,7 +88,8 @@ class SoundView(pn.viewable.Viewer):
         self.render_ms = math.nan
         self._rendered: dict[str, Any] = {}
         self._scale_text = ""
-        self._first = True
+        self._first = True  # the first sound renders once the page is up and a run exists
+        self._loaded = False
         self._syncing = False
         self._build()
 
@@ -368,13 +369,19 @@ class SoundView(pn.viewable.Viewer):
 
     @guarded
     def _on_load(self) -> None:
-        if self._first:
+        self._loaded = True
+        self._first_render()
+
+    def _first_render(self) -> None:
+        # the first run may land after the page has loaded (it is drawn after load)
+        if self._first and self._loaded and self.state.result is not None:
             self._first = False
             self.render()
 
     @guarded
     def _on_result(self, *_: Any) -> None:
         if self._first:
+            self._first_render()
             return
         if self.auto.value and self.render():
             return
