@@ -3,95 +3,186 @@
 Also a Panel script: ``panel serve app/main.py`` builds one dashboard per session (add
 ``--warm`` to compile at start-up rather than in the first session).
 
-Offline by construction: Panel and Bokeh resources are served by this server (resource mode
-``server``, no CDN), and the Bootstrap template is used because it loads no web fonts (the
-Fast and Material templates fetch Google Fonts). The UI tests check that no request leaves
-the host.
-
-Numba compiles the solver and the sweep kernel, and datashader its aggregation, in
-:func:`warm_up` at server start, so the first visitor's first slider move is as fast as any.
+* Offline by construction: Panel and Bokeh resources are served by this server (resource mode
+  ``server``, no CDN), and the Bootstrap template loads no web fonts.
+* :func:`warm_up` loads everything a session needs before the server answers (numba's
+  compiled kernels, datashader's, the shipped diagrams, the job pool's worker processes), so
+  the first page is as fast as any; :func:`serve` prints the address only once the port
+  answers.
+* A closed session is freed: its jobs are cancelled and its dashboard dropped
+  (``pn.state.on_session_destroyed``), and unused sessions are reaped within seconds.
+* Bokeh recomputes the set of a document's models at the end of every batch of changes,
+  whether or not the batch changed which models exist. HoloViews wraps each plot update in
+  such a batch, so on a full page every redraw paid for a walk of every model (about 25 ms).
+  :func:`_recompute_only_when_needed` makes that walk happen only when a model was added or
+  removed (Bokeh signals those by ``invalidate``) or the roots changed; a test checks the
+  model set stays exact.
 """
 from __future__ import annotations
 
 import logging
 import os
+import socket
 import sys
 import threading
+import time
 
 import panel as pn
 
-if __package__ in (None, ""):  # run as a script by `panel serve app/main.py`, from a checkout
+if __package__ in (None, ""):  # run as a script by `panel serve app/main.py`
     sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-    from app import background, maps_panel, views
+    from app import jobs, maps_view
     from app.dashboard import Dashboard
 else:  # imported as a package: `app` in a checkout, `rattle_app` when installed
-    from . import background, maps_panel, views
+    from . import jobs, maps_view
     from .dashboard import Dashboard
 
 log = logging.getLogger("app")
 
 _warm_lock = threading.Lock()
 _warm = False
+#: Seconds after which a session whose page is closed is destroyed, and how often to look.
+UNUSED_SESSION_S = 5
+
+
+def _recompute_only_when_needed() -> None:
+    """Skip Bokeh's walk of a document's models when a batch of changes added or removed none."""
+    from bokeh.document import models as bm
+
+    manager = bm.DocumentModelManager
+    if getattr(manager, "_rattle_patched", False):
+        return
+    invalidate = manager.invalidate
+
+    def roots(self) -> tuple:
+        doc = self._document()
+        return tuple(id(r) for r in doc.roots) if doc is not None else ()
+
+    def patched_invalidate(self) -> None:
+        self._rattle_dirty = True
+        invalidate(self)
+
+    def push(self) -> None:
+        if self._freeze_count == 0:
+            self._rattle_dirty = False
+            self._rattle_roots = roots(self)
+        self._freeze_count += 1
+
+    def pop(self) -> None:
+        self._freeze_count -= 1
+        if self._freeze_count == 0:
+            if getattr(self, "_rattle_dirty", True) or roots(self) != getattr(self, "_rattle_roots", None):
+                self.recompute()
+
+    manager.invalidate, manager._push_freeze, manager._pop_freeze = patched_invalidate, push, pop
+    manager._rattle_patched = True
 
 
 def configure() -> None:
-    """Serve every script and stylesheet from this server, never from a CDN."""
+    """Serve every script and stylesheet from this server; load HoloViews' Bokeh backend."""
+    import holoviews as hv
+
     os.environ.setdefault("BOKEH_RESOURCES", "server")
     pn.extension(inline=False)
     pn.config.inline = False
+    hv.extension("bokeh", logo=False)
+    _recompute_only_when_needed()
 
 
-def warm_up() -> None:
+def warm_up(pool: bool = True) -> None:
     """Compile and load everything a session needs (once per process)."""
     global _warm
     with _warm_lock:
         if _warm:
             return
+        import holoviews as hv
         import numpy as np
+        from holoviews.operation.datashader import datashade, dynspread
+
         from rattle_core import RattleParams, classify, simulate
 
+        from .diagram_data import _assets
         tr = simulate(RattleParams(lam=3.3, amplitudes=(1.0, 0.25), phases_deg=(0.0, -135.0)),
                       periods=50, transient=10, lyapunov=True)
         classify(tr)
-        views.time_history_data(tr, 2)
-        views.rasterize(np.random.default_rng(0).normal(size=100), np.zeros(100), (-3, 3),
-                        (-1, 1), 50, 50)
-        views.rasterize(np.zeros(10), np.zeros(10), (-1, 1), (-1, 1), 50, 50,
-                        category=np.ones(10, dtype=np.int8), colors={1: "#ff0000", -1: "#0000ff"})
-        background.warm_up()
+        pts = hv.Points((np.random.default_rng(0).normal(size=100), np.zeros(100)))
+        dynspread(datashade(pts, dynamic=False, width=50, height=50), dynamic=False)
+        _assets()
+        if pool:
+            jobs.pool()
         _warm = True
 
 
 def create_app() -> pn.template.BootstrapTemplate:
-    """The servable dashboard for one session (its own state, figures and background job)."""
+    """The servable dashboard for one session (its own state, views and background jobs)."""
     configure()
     warm_up()
-    return Dashboard().layout
+    dash = Dashboard(location=pn.state.location, doc=pn.state.curdoc)
+    if pn.state.curdoc is not None and pn.state.curdoc.session_context is not None:
+        def destroyed(session_context) -> None:
+            try:
+                dash.destroy()
+            except Exception:
+                log.exception("closing a session failed")
+        pn.state.on_session_destroyed(destroyed)
+    return dash.layout
+
+
+def _answers(address: str, port: int) -> bool:
+    host = "127.0.0.1" if address in ("", "0.0.0.0", "localhost") else address
+    try:
+        with socket.create_connection((host, port), timeout=0.5):
+            return True
+    except OSError:
+        return False
 
 
 def serve(port: int = 5006, address: str = "localhost", show: bool = False,
-          scheduler: str | None = None, dask: str | None = None, **kwargs):
-    """Start the dashboard server and block (``threaded=True`` returns the server thread).
+          scheduler: str | None = None, dask: str | None = None, threaded: bool = False,
+          quiet: bool = False, **kwargs):
+    """Start the dashboard server; print its address once the port answers.
 
-    ``scheduler`` (``tcp://host:port``) or ``dask="local"`` become the default of the Maps
-    tab's "Dask scheduler" field in every session; by default maps use this server's cores.
+    ``scheduler`` (``tcp://host:port``) or ``dask="local"`` (a 2-worker ``LocalCluster``
+    started here) is where every session's maps run; no page can change it. Blocks, unless
+    ``threaded`` (then returns the server thread, already answering).
     """
     if scheduler and dask:
         raise ValueError("give scheduler or dask='local', not both")
     if dask not in (None, "local"):
         raise ValueError(f"dask = {dask!r}; the only value is 'local'")
-    maps_panel.set_default_scheduler(dask or scheduler or "")
+    if dask == "local":
+        from dask.distributed import LocalCluster
+        cluster = LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None)
+        scheduler = cluster.scheduler_address
+    maps_view.set_scheduler(scheduler or "")
     configure()
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
-    log.info("warming up (numba compilation, shipped diagrams)…")
+    log.info("warming up (compiled kernels, shipped diagrams, worker processes)…")
     warm_up()
     origins = kwargs.pop("websocket_origin", None) or [f"{address}:{port}", f"localhost:{port}",
                                                        f"127.0.0.1:{port}"]
-    log.info("serving Rattle Explorer on http://%s:%d/", address, port)
-    if maps_panel.default_scheduler():
-        log.info("2-D maps run on Dask: %s", maps_panel.default_scheduler())
-    return pn.serve(create_app, port=port, address=address, show=show, title="Rattle Explorer",
-                    websocket_origin=origins, liveness=True, **kwargs)
+    kwargs.setdefault("check_unused_sessions", UNUSED_SESSION_S * 1000)
+    kwargs.setdefault("unused_session_lifetime", UNUSED_SESSION_S * 1000)
+    server = pn.serve(create_app, port=port, address=address, show=show, title="Rattle Explorer",
+                      websocket_origin=origins, liveness=True, threaded=True, **kwargs)
+    deadline = time.monotonic() + 60
+    while not _answers(address, port):
+        if time.monotonic() > deadline:
+            raise RuntimeError(f"the dashboard did not start answering on port {port}")
+        time.sleep(0.05)
+    if not quiet:
+        print(f"serving Rattle Explorer on http://{address}:{port}/ (Ctrl+C stops)", flush=True)
+        if scheduler:
+            print(f"2-D maps run on Dask: {scheduler}", flush=True)
+    if threaded:
+        return server
+    try:
+        while server.is_alive():
+            server.join(0.5)
+    except KeyboardInterrupt:
+        server.stop()
+        raise
+    return server
 
 
 if __name__ == "__main__":

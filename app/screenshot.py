@@ -45,7 +45,7 @@ def main() -> int:
 
     from playwright.sync_api import sync_playwright
 
-    from app.main import serve
+    from .main import serve
 
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

@@ -1,14 +1,19 @@
-"""The dashboard's state: one ``param`` object per session, its validation, URL keys and presets.
+"""The explorer's state: one ``param.Parameterized`` per session, and the rules it validates by.
 
-Everything the views show is derived from :class:`DashboardState`. Widgets, the URL
-(``pn.state.location.sync``), presets and clicks on the plots all write to it, and only through
-:func:`validate_field`, so a bad value never reaches the solver: it is rejected with a message
-naming the control, the value and the allowed range, and the last good state stays.
+:class:`ExplorerState` holds everything a session can set (model parameters, run settings,
+view settings, the physical-units inputs) and, below them, what the session computed from
+them (``result``) and the messages shown beside the controls (``messages``). Every number
+carries its allowed range as param bounds (``softbounds`` give the sliders' range), so a
+value outside it is refused by param itself, whoever sets it: a widget, the URL, a click,
+a preset. :func:`rejection` turns such a refusal into the message shown beside the control,
+naming it, the value (escaped when shown) and the allowed range.
 
-Phases typed in the dashboard follow the core's literal convention,
-``y = Σ h_k cos(k t − φ_k)``. The paper's figures read the excitation as ``Σ h_k sin(k t + φ_k)``;
-the presets come from the paper's cases (:func:`rattle_core.paper.cases.explorer_presets`), which
-store core phases, so "Fig 7" (paper φ₂ = 45°) sets φ₂ = −135°.
+Phases are stored in the convention the page shows (``phases``): the paper's
+``y = Σ h_k sin(k t + φ_k)`` by default, or the core's ``Σ h_k cos(k t − φ_k)``.
+:meth:`ExplorerState.set_phase_convention` converts ``phi2`` and the extra harmonics when the
+user switches, so the model does not change; :func:`rattle_params` converts to the core.
+
+The URL keys are the parameter names (physical inputs have short keys, :data:`URL_KEYS`).
 """
 from __future__ import annotations
 
@@ -19,167 +24,38 @@ from typing import Any
 import param
 
 from rattle_core import RattleParams
-from rattle_core.model.params import (AMPLITUDE_RANGE, J_RANGE, LAM_RANGE, MAX_HARMONICS,
-                                      PHASE_RANGE_DEG, R_RANGE, V_STICK_RANGE, check_range)
-from rattle_core.model.phases import paper_to_core
-from rattle_core.paper.cases import explorer_presets
 
-#: Largest window the dashboard simulates per redraw, to keep a slider move interactive.
-MAX_PERIODS = 20_000
-MAX_TRANSIENT = 100_000
-MAX_SHOWN = 2_000
+from .core import (AMPLITUDE_RANGE, J_RANGE, LAM_RANGE, MAX_HARMONICS, PAPER_CASES,
+                   PHASE_RANGE_DEG, R_RANGE, V_STICK_RANGE, check_range, core_to_paper_phases,
+                   paper_to_core_phases)
+from .core import units as U
 
-
-@dataclasses.dataclass(frozen=True)
-class Field:
-    """One user-editable quantity: its symbol, meaning, allowed range and slider range."""
-
-    name: str
-    symbol: str
-    meaning: str
-    lo: float
-    hi: float
-    lo_open: bool = False
-    integer: bool = False
-    start: float | None = None  # slider range, narrower than the allowed range
-    end: float | None = None
-    step: float | None = None
-
-    @property
-    def label(self) -> str:
-        return f"{self.symbol} · {self.meaning}"
-
-    def range_text(self) -> str:
-        left = "(" if self.lo_open else "["
-        return f"{left}{self.lo:g}, {self.hi:g}]"
-
-
-FIELDS: dict[str, Field] = {f.name: f for f in [
-    Field("lam", "Λ", "inertia ÷ drag, m H₁ω²/F", *LAM_RANGE, lo_open=True, start=0.2, end=6.0, step=0.01),
-    Field("r", "r", "restitution coefficient", *R_RANGE, start=0.0, end=1.0, step=0.01),
-    Field("j", "j", "backlash ÷ H₁", *J_RANGE, lo_open=True, start=0.5, end=20.0, step=0.1),
-    Field("h2", "H₂/H₁", "2nd-harmonic amplitude ratio", *AMPLITUDE_RANGE, start=0.0, end=1.0, step=0.01),
-    Field("phi2", "φ₂", "2nd-harmonic phase, degrees", *PHASE_RANGE_DEG, start=-180.0, end=180.0, step=1.0),
-    Field("periods", "N", "periods recorded (Poincaré map, metrics)", 1, MAX_PERIODS, integer=True),
-    Field("shown", "Nₜ", "periods shown in the time history", 1, MAX_SHOWN, integer=True),
-    Field("transient", "Nₜᵣ", "transient periods, not recorded", 0, MAX_TRANSIENT, integer=True),
-    Field("v_stick", "v_stick", "limit impact velocity (ends chatter)", *V_STICK_RANGE),
-    Field("x0", "x₀", "initial position (empty: middle of the backlash)", -1e6, 1e6),
-    Field("v0", "ẋ₀", "initial velocity", -1e6, 1e6),
-    Field("t0", "t₀", "start time (phase of the forcing)", -1e9, 1e9),
-    Field("strobe", "θ", "strobe phase of the Poincaré map, degrees", 0.0, 360.0, start=0.0, end=360.0, step=1.0),
-]}
-
-SECTIONS = ("absolute", "relative", "impact")
-#: Bifurcation diagrams: Ĩ against Λ, φ₂, or engine speed (physical-units mode only).
-BIF_PARAMS = ("lam", "phi2", "rpm")
-
-
-class DashboardState(param.Parameterized):
-    """Everything that defines the view; synced with the URL, one instance per session.
-
-    Numbers carry their allowed range as hard bounds, so even a direct assignment (the URL
-    sync does one) cannot store an out-of-range value.
-    """
-
-    lam = param.Number(3.3, bounds=LAM_RANGE, inclusive_bounds=(False, True))
-    r = param.Number(0.65, bounds=R_RANGE)
-    j = param.Number(8.0, bounds=J_RANGE, inclusive_bounds=(False, True))
-    h2 = param.Number(0.25, bounds=AMPLITUDE_RANGE)
-    phi2 = param.Number(paper_to_core(45.0), bounds=PHASE_RANGE_DEG)
-    harmonics = param.String("", doc="Extra harmonics k ≥ 3 as 'k:h:φ' items, comma-separated.")
-    periods = param.Integer(200, bounds=(1, MAX_PERIODS))
-    shown = param.Integer(12, bounds=(1, MAX_SHOWN))
-    transient = param.Integer(300, bounds=(0, MAX_TRANSIENT))
-    v_stick = param.Number(1e-6, bounds=V_STICK_RANGE)
-    x0 = param.String("", doc="Initial position; empty means the middle of the backlash.")
-    v0 = param.Number(0.0, bounds=(-1e6, 1e6))
-    t0 = param.Number(0.0, bounds=(-1e9, 1e9))
-    strobe = param.Number(0.0, bounds=(0.0, 360.0))
-    section = param.Selector(default="absolute", objects=list(SECTIONS))
-    bif = param.Selector(default="lam", objects=list(BIF_PARAMS))
-    overlays = param.Boolean(True)
-
-
-#: Parameters that change the trajectory (and so every view).
-DYNAMIC = ("lam", "r", "j", "h2", "phi2", "harmonics", "periods", "shown", "transient", "v_stick",
-           "x0", "v0", "t0", "strobe", "section")
-#: URL query keys, one per state parameter (short, stable names: links are shared).
-URL_KEYS = {name: name for name in DashboardState.param if name != "name"}
-
-
-def validate_field(name: str, value: Any) -> Any:
-    """Return ``value`` cleaned for state parameter ``name``, or raise ``ValueError``.
-
-    The message names the control's symbol, the value and the allowed range.
-    """
-    if name == "harmonics":
-        return format_harmonics(parse_harmonics(value))
-    if name == "x0":
-        if value is None or (isinstance(value, str) and value.strip() == ""):
-            return ""
-        f = FIELDS["x0"]
-        return repr(check_range(f.symbol, _number(f, value), f.lo, f.hi, text_ok=True))
-    if name == "section":
-        if value not in SECTIONS:
-            raise ValueError(f"section = {value!r}; allowed: {', '.join(SECTIONS)}")
-        return value
-    if name == "bif":
-        if value not in BIF_PARAMS:
-            raise ValueError(f"bifurcation parameter = {value!r}; allowed: {', '.join(BIF_PARAMS)}")
-        return value
-    if name == "overlays":
-        if isinstance(value, bool):
-            return value
-        if str(value).lower() in ("true", "1"):
-            return True
-        if str(value).lower() in ("false", "0"):
-            return False
-        raise ValueError(f"overlays = {value!r}; allowed: true or false")
-    if name not in FIELDS:
-        raise ValueError(f"unknown setting {name!r}")
-    f = FIELDS[name]
-    v = check_range(f.symbol, _number(f, value), f.lo, f.hi, lo_open=f.lo_open, text_ok=True)
-    if f.integer:
-        if v != int(v):
-            raise ValueError(f"{f.symbol} = {value!r} must be a whole number in {f.range_text()}")
-        return int(v)
-    return v
-
-
-def _number(f: Field, value: Any) -> float:
-    if isinstance(value, bool):
-        raise ValueError(f"{f.symbol} must be a number, got {value!r}")
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{f.symbol} must be a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise ValueError(f"{f.symbol} must be finite, got {value!r}")
-    return v
+_EX = U.example()
+#: Physical ranges, open at their lower end.
+OPEN = (False, True)
 
 
 def parse_harmonics(text: Any) -> dict[int, tuple[float, float]]:
     """Parse ``'3:0.1:30, 5:0.05:-20'`` into ``{3: (0.1, 30.0), 5: (0.05, -20.0)}``.
 
-    Orders run from 3 to ``MAX_HARMONICS`` (1 and 2 have their own sliders); amplitudes and
-    phases obey the core's ranges.
+    Orders run from 3 to ``MAX_HARMONICS`` (1 and 2 have their own controls); amplitudes and
+    phases obey the core's ranges. Raises ``ValueError`` naming the item at fault.
     """
     if text is None:
         return {}
     if not isinstance(text, str):
-        raise ValueError(f"harmonics must be text like '3:0.1:30', got {text!r}")
+        raise ValueError(f"harmonics must be text like '3:0.1:30', got {type(text).__name__}")
     out: dict[int, tuple[float, float]] = {}
     for item in filter(None, (s.strip() for s in text.split(","))):
         parts = item.split(":")
         if len(parts) != 3:
-            raise ValueError(f"harmonic {item!r} must be 'order:amplitude:phase', e.g. '3:0.1:30'")
+            raise ValueError(f"harmonic {item[:30]!r} must be 'order:amplitude:phase', e.g. '3:0.1:30'")
         try:
             k = float(parts[0])
         except ValueError:
-            raise ValueError(f"harmonic order {parts[0]!r} must be a whole number in [3, {MAX_HARMONICS}]") from None
-        if k != int(k) or not 3 <= k <= MAX_HARMONICS:
-            raise ValueError(f"harmonic order {parts[0]!r} must be a whole number in [3, {MAX_HARMONICS}]")
+            k = math.nan
+        if not (math.isfinite(k) and k == int(k) and 3 <= k <= MAX_HARMONICS):
+            raise ValueError(f"harmonic order {parts[0][:20]!r} must be a whole number in [3, {MAX_HARMONICS}]")
         h = check_range(f"H{int(k)}/H₁", parts[1], *AMPLITUDE_RANGE, text_ok=True)
         phi = check_range(f"φ{int(k)}", parts[2], *PHASE_RANGE_DEG, text_ok=True)
         out[int(k)] = (h, phi)
@@ -191,53 +67,267 @@ def format_harmonics(harm: dict[int, tuple[float, float]]) -> str:
     return ",".join(f"{k}:{h!r}:{phi!r}" for k, (h, phi) in sorted(harm.items()))
 
 
-def rattle_params(state: DashboardState) -> RattleParams:
-    """The core's parameter object for this state (``ValueError`` if the core rejects it)."""
+class Harmonics(param.String):
+    """Extra harmonics as ``'k:h:φ'`` items; param refuses text that does not parse."""
+
+    def _validate_value(self, val, allow_None):
+        super()._validate_value(val, allow_None)
+        parse_harmonics(val)
+
+
+class OptionalNumber(param.Number):
+    """A number or None; the URL writes None as an empty value and reads it back."""
+
+    @classmethod
+    def serialize(cls, value):
+        return "" if value is None else value
+
+    @classmethod
+    def deserialize(cls, value):
+        return None if value in (None, "", "null") else value
+
+
+class Flag(param.Boolean):
+    """A switch the URL may also give as 1/0, on/off or yes/no."""
+
+    @classmethod
+    def deserialize(cls, value):
+        text = str(value).strip().lower()
+        if text in ("1", "true", "on", "yes"):
+            return True
+        if text in ("0", "false", "off", "no"):
+            return False
+        return value
+
+
+def convert_phase(phi: float, k: int) -> float:
+    """Harmonic ``k``'s phase from one convention to the other (the mapping is its own inverse)."""
+    phases = [0.0] * k
+    phases[k - 1] = phi
+    return paper_to_core_phases(phases)[k - 1]
+
+
+class Said(param.Parameterized):
+    """A parameterized object whose controls show messages (``messages``: name → text)."""
+
+    messages = param.Dict({}, precedence=-1, doc="control name → message shown beside it")
+
+    def say(self, name: str, text: str) -> None:
+        """Show ``text`` beside control ``name`` (``global``/``url``: above the tabs)."""
+        if self.messages.get(name) != text:
+            self.messages = {**self.messages, name: text}
+
+    def clear(self, *names: str) -> None:
+        """Take the messages of ``names`` away."""
+        if any(n in self.messages for n in names):
+            self.messages = {k: v for k, v in self.messages.items() if k not in names}
+
+
+class ExplorerState(Said):
+    """Everything one session can set, with its allowed range; and what it computed."""
+
+    # ----- model ---------------------------------------------------------------------------
+    lam = param.Number(3.3, bounds=LAM_RANGE, inclusive_bounds=OPEN, softbounds=(0.2, 6.0),
+                       step=0.01, label="Λ", doc="inertia ÷ drag, m H₁ω²/F")
+    r = param.Number(0.65, bounds=R_RANGE, softbounds=R_RANGE, step=0.01, label="r",
+                     doc="restitution coefficient")
+    j = param.Number(8.0, bounds=J_RANGE, inclusive_bounds=OPEN, softbounds=(0.5, 20.0), step=0.1,
+                     label="j", doc="backlash ÷ H₁")
+    h2 = param.Number(0.25, bounds=AMPLITUDE_RANGE, softbounds=(0.0, 1.0), step=0.01,
+                      label="H₂/H₁", doc="2nd-harmonic amplitude ratio")
+    phi2 = param.Number(45.0, bounds=PHASE_RANGE_DEG, softbounds=(-180.0, 360.0), step=1.0,
+                        label="φ₂", doc="2nd-harmonic phase, degrees")
+    phases = param.Selector(default="paper", objects=["paper", "core"], label="phase convention",
+                            doc="paper: y = Σ h_k sin(k t + φ_k); core: y = Σ h_k cos(k t − φ_k)")
+    harmonics = Harmonics("", label="harmonics", doc="extra harmonics k ≥ 3 as 'k:h:φ' items")
+    v_stick = param.Number(1e-6, bounds=V_STICK_RANGE, label="v_stick",
+                           doc="limit impact velocity (ends chatter)")
+    # ----- run -------------------------------------------------------------------------------
+    periods = param.Integer(200, bounds=(1, 20_000), label="N", doc="periods recorded (map, metrics)")
+    shown = param.Integer(12, bounds=(1, 2_000), label="Nₜ", doc="periods shown in the time history")
+    transient = param.Integer(300, bounds=(0, 100_000), label="Nₜᵣ", doc="transient periods, not recorded")
+    x0 = OptionalNumber(None, allow_None=True, bounds=(-1e6, 1e6), label="x₀",
+                        doc="initial position (empty: middle of the backlash)")
+    v0 = param.Number(0.0, bounds=(-1e6, 1e6), label="ẋ₀", doc="initial velocity")
+    t0 = param.Number(0.0, bounds=(-1e9, 1e9), label="t₀", doc="start time (phase of the forcing)")
+    strobe = param.Number(0.0, bounds=(0.0, 360.0), softbounds=(0.0, 360.0), step=1.0, label="θ",
+                          doc="strobe phase of the Poincaré map, degrees")
+    # ----- view ------------------------------------------------------------------------------
+    section = param.Selector(default="absolute", objects=["absolute", "relative", "impact"],
+                             label="section")
+    bif = param.Selector(default="lam", objects=["lam", "phi2", "rpm"], label="diagram",
+                         doc="bifurcation diagram against Λ, φ₂ or (physical units) engine speed")
+    overlays = Flag(True, label="overlays", doc="contact boundary Λ_c and 2πn/Λ")
+    # ----- physical units --------------------------------------------------------------------
+    units = Flag(False, label="physical units")
+    inertia = param.Number(_EX.inertia, bounds=U.INERTIA_RANGE, inclusive_bounds=OPEN,
+                           label="J", doc="idle-gear inertia [kg·m²]")
+    radius = param.Number(_EX.radius, bounds=U.RADIUS_RANGE, inclusive_bounds=OPEN,
+                          label="R_b", doc="idle-gear base radius [m]")
+    drag_torque = param.Number(_EX.drag_torque, bounds=U.DRAG_TORQUE_RANGE,
+                               inclusive_bounds=OPEN, label="C", doc="drag torque on the idle gear [N·m]")
+    backlash_um = param.Number(_EX.backlash_um, bounds=tuple(v * 1e6 for v in U.BACKLASH_RANGE),
+                               inclusive_bounds=OPEN, label="b", doc="backlash along the line of action [µm]")
+    backlash_unit = param.Selector(default="um", objects=["um", "deg"], label="backlash shown in")
+    rpm = param.Number(_EX.rpm, bounds=U.RPM_RANGE, inclusive_bounds=OPEN, label="engine speed [rpm]")
+    order = param.Number(_EX.order, bounds=U.ORDER_RANGE, inclusive_bounds=OPEN,
+                         label="order", doc="engine order of the fundamental")
+    excitation = param.Selector(default="displacement", objects=["displacement", "acceleration"],
+                                label="excitation")
+    amp1 = param.Number(_EX.amplitudes[0], bounds=U.ALPHA_RANGE, inclusive_bounds=OPEN,
+                        label="order-1 amplitude", doc="θ₁ [rad] or α₁ [rad/s²]")
+    amp2 = param.Number(_EX.amplitudes[1], bounds=U.ALPHA_RANGE, label="order-2 amplitude",
+                        doc="θ₂ [rad] or α₂ [rad/s²]")
+    phase2 = param.Number(_EX.phases_deg[1], bounds=PHASE_RANGE_DEG, label="φ₂ (physical)",
+                          doc="order-2 phase [°], cos(2ωt − φ₂)")
+    solve_for = param.Selector(default="rpm", objects=list(U.SOLVE_FOR), label="a change of Λ moves")
+    # ----- continuation ----------------------------------------------------------------------
+    continuation = Flag(False, label="continued branch",
+                        doc="the orbit found at cont_from, continued over the diagram's range")
+    cont_from = OptionalNumber(None, allow_None=True, bounds=(-1e6, 1e6), label="continued from",
+                               doc="the diagram parameter's value (axis units) where the continued "
+                                   "orbit was found (empty: the current value)")
+    # ----- computed, never in the URL ----------------------------------------------------------
+    result = param.Parameter(None, precedence=-1, doc="the last good Run")
+    branch = param.Parameter(None, precedence=-1, doc="the continued branch shown (app.branch.Branch)")
+
+    def set_phase_convention(self, convention: str) -> None:
+        """Show phases in ``convention`` ('paper' or 'core'); the model stays the same."""
+        if convention == self.phases:
+            return
+        self.param["phases"]._validate(convention)
+        harm = {k: (h, convert_phase(p, k)) for k, (h, p) in parse_harmonics(self.harmonics).items()}
+        self.param.update(phases=convention, phi2=convert_phase(self.phi2, 2),
+                          harmonics=format_harmonics(harm))
+
+
+#: State parameters → URL query keys.
+URL_KEYS = {n: n for n in ExplorerState.param if n not in ("name", "result", "messages", "branch")}
+URL_KEYS.update(inertia="J", radius="Rb", drag_torque="C", backlash_um="b_um", backlash_unit="b_unit",
+                excitation="exc", amp1="a1", amp2="a2", phase2="p2", solve_for="solve",
+                continuation="cont")
+#: Parameters that change the trajectory.
+RUN_KEYS = ("lam", "r", "j", "h2", "phi2", "phases", "harmonics", "v_stick", "periods", "transient",
+            "x0", "v0", "t0", "strobe")
+#: Physical inputs that determine Λ, j, h₂, φ₂ while the units mode is on.
+PHYSICAL_KEYS = ("inertia", "radius", "drag_torque", "backlash_um", "rpm", "order", "excitation",
+                 "amp1", "amp2", "phase2")
+
+
+@dataclasses.dataclass(frozen=True)
+class Run:
+    """One good simulation of the state: what every view draws."""
+
+    params: RattleParams
+    tr: Any
+    cls: Any
+    phys: Any  # PhysicalParams while the units mode is on, else None
+    phases: str
+    ms: float
+
+
+def range_text(state: param.Parameterized, name: str) -> str:
+    """The allowed range of a numeric parameter, e.g. ``(0, 10000]``."""
+    p = state.param[name]
+    lo, hi = p.bounds
+    inc = getattr(p, "inclusive_bounds", (True, True))
+    return f"{'[' if inc[0] else '('}{lo:g}, {hi:g}{']' if inc[1] else ')'}"
+
+
+def rejection(state: param.Parameterized, name: str, value: Any, reason: str = "") -> str:
+    """The message beside control ``name`` when ``value`` is refused (plain text, not HTML)."""
+    p = state.param[name]
+    label = p.label or name
+    kept = getattr(state, name)
+    kept_text = "empty" if kept is None else (f"{kept:g}" if isinstance(kept, float) else str(kept))
+    if isinstance(p, param.Selector):
+        allowed = ", ".join(map(str, p.objects))
+        return f"{label} = {_show(value)} is not allowed; allowed: {allowed}. Kept {kept_text}."
+    if isinstance(p, param.Boolean):
+        return f"{label} = {_show(value)} is not allowed; allowed: true or false. Kept {kept_text}."
+    if isinstance(p, param.Number):
+        whole = "a whole number" if isinstance(p, param.Integer) else "a number"
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            what = f"{label} must be {whole}, got {_show(value)}"
+        elif isinstance(p, param.Integer) and value != int(value):
+            what = f"{label} = {value!r} must be {whole}"
+        elif not math.isfinite(value):
+            what = f"{label} must be finite, got {value!r}"
+        else:
+            shown = int(value) if isinstance(p, param.Integer) else float(value)
+            what = f"{label} = {shown!r} is outside the allowed range"
+        return f"{what}; allowed {range_text(state, name)}. Kept {kept_text}."
+    if not reason:
+        try:
+            p._validate(value)
+        except ValueError as exc:
+            reason = str(exc)
+    return f"{label}: {reason or 'not allowed'}. Kept {kept_text or 'empty'}."
+
+
+def _show(value: Any) -> str:
+    from .labels import short
+    return short(value)
+
+
+def rattle_params(state: ExplorerState) -> RattleParams:
+    """The core's parameter object for this state (phases converted to the core convention)."""
     extra = parse_harmonics(state.harmonics)
     n = max([2, *extra])
     amps = [1.0, state.h2] + [0.0] * (n - 2)
     phases = [0.0, state.phi2] + [0.0] * (n - 2)
     for k, (h, phi) in extra.items():
-        amps[k - 1] = h
-        phases[k - 1] = phi
+        amps[k - 1], phases[k - 1] = h, phi
+    if state.phases == "paper":
+        phases = list(paper_to_core_phases(phases))
     return RattleParams(lam=state.lam, r=state.r, j=state.j, amplitudes=tuple(amps),
                         phases_deg=tuple(phases), v_stick=state.v_stick)
 
 
-def initial_x(state: DashboardState) -> float | None:
-    """``x0`` as the solver wants it: None (middle of the backlash) or a float."""
-    return None if state.x0.strip() == "" else float(state.x0)
+def display_phases(params: RattleParams, convention: str) -> tuple[float, ...]:
+    """The core parameters' phases as the page shows them."""
+    return core_to_paper_phases(params.phases_deg) if convention == "paper" else params.phases_deg
 
 
-def apply_values(state: DashboardState, values: dict[str, Any]) -> dict[str, str]:
-    """Validate and apply ``values`` in one batch; return ``{name: message}`` for the rejected ones.
+# ----- the paper's cases ------------------------------------------------------------------
 
-    Valid entries are applied even when others are rejected, so one bad URL parameter does
-    not cost the others.
-    """
-    good, errors = {}, {}
-    for name, value in values.items():
-        if name not in URL_KEYS:
-            errors[name] = f"unknown setting {name!r} ignored"
-            continue
-        try:
-            good[name] = validate_field(name, value)
-        except ValueError as exc:
-            errors[name] = str(exc)
-    changed = {k: v for k, v in good.items() if getattr(state, k) != v}
-    if changed:
-        state.param.update(**changed)
-    return errors
-
-
-# ----- the paper's cases --------------------------------------------------------------------
-
-def _state_values(p: RattleParams, **view: Any) -> dict[str, Any]:
-    """The state values that show ``p`` (two harmonics at most) from a fresh start."""
-    return {"lam": p.lam, "r": p.r, "j": p.j, "h2": p.get("h2"), "phi2": p.get("phi2"),
-            "harmonics": "", "x0": "", "v0": 0.0, "t0": 0.0, **view}
+def _case(key: str, **kw: Any) -> dict[str, Any]:
+    """State values of one of the paper's cases (``rattle_core.paper``), in its phases."""
+    c = PAPER_CASES[key]
+    p = c.params
+    values = {"r": p.r, "j": p.j, "h2": 0.0, "phi2": 0.0, "harmonics": "", "phases": "paper",
+              "x0": None, "v0": 0.0, "t0": 0.0, "lam": p.lam}
+    if c.paper_phi2 is not None or c.name == "phi2":
+        values.update(h2=p.amplitudes[1], phi2=c.paper_phi2 if c.paper_phi2 is not None else 0.0)
+    if c.name:
+        values["bif"] = c.name
+    return {**values, **kw}
 
 
 #: One-click reproductions of the paper's figures: label → (description, state values).
 PRESETS: dict[str, tuple[str, dict[str, Any]]] = {
-    p.label: (p.description, _state_values(p.params, **p.view)) for p in explorer_presets()}
+    "Fig 2": ("Impulse vs Λ, harmonic excitation", _case("fig2", lam=2.5, shown=12)),
+    "Fig 3B": ("Time history, regime B: impacts then permanent contact",
+               _case("fig3", lam=1.1, bif="lam", shown=6)),
+    "Fig 3C": ("Time history, regime C: one active-flank impact per period",
+               _case("fig3", lam=1.2, bif="lam", shown=6)),
+    "Fig 3D": ("Time history, regime D: chaotic", _case("fig3", lam=1.16, bif="lam", shown=12)),
+    "Fig 3E": ("Time history, regime E: one impact on each flank per period",
+               _case("fig3", lam=3.3, bif="lam", shown=6)),
+    "Fig 4": ("Impulse vs Λ, H₂/H₁ = 0.25, φ₂ = 45° (paper)", _case("fig4", lam=3.3)),
+    "Fig 5": ("Impulse vs Λ, H₂/H₁ = 0.25, φ₂ = 90° (paper)", _case("fig5", lam=3.3)),
+    "Fig 6": ("Impulse vs φ₂ at Λ = 1.95", _case("fig6", phi2=45.0)),
+    "Fig 7": ("Strange attractor: Λ = 3.3, φ₂ = 45° (paper)",
+              _case("fig7", bif="lam", periods=5000, section="absolute")),
+    "Fig 8": ("Periodic, one impact per flank: Λ = 3.3, φ₂ = 90° (paper)",
+              _case("fig8", bif="lam", periods=200, shown=6, section="absolute")),
+}
+
+
+def preset_values(state: ExplorerState, label: str) -> dict[str, Any]:
+    """A preset's values for ``state``: phases converted when the page shows the core's."""
+    values = dict(PRESETS[label][1])
+    if state.phases == "core":
+        values["phases"] = "core"
+        values["phi2"] = convert_phase(values["phi2"], 2)
+    return values

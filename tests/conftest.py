@@ -5,7 +5,8 @@
   Chromium or Playwright is missing, except under ``scripts/test.sh`` (which installs both and
   sets ``RATTLE_REQUIRE_UI=1``), where a missing browser is an error.
 * ``dash`` is one dashboard session built without a server or browser (the update path, the
-  feature panels), torn down like a closed session.
+  views), torn down like a closed session; its background jobs run in ``job_pool``'s worker
+  processes, and ``wait_for`` waits for their results.
 * ``dashboard_server`` serves the real dashboard once per test session on a free port and
   records every log line, so tests can assert that the server printed no traceback.
 """
@@ -112,16 +113,34 @@ def dashboard_server():
     root.removeHandler(recorder)
 
 
+@pytest.fixture(scope="session")
+def job_pool():
+    """Worker processes for the background jobs of the dashboards built by the tests."""
+    from app.jobs import JobPool
+    from app.work import warm_up
+
+    pool = JobPool(size=2, warm=warm_up)
+    yield pool
+    pool.shutdown()
+
+
 @pytest.fixture()
-def dash():
-    """A Dashboard with its panels, no server or browser; closed like a session afterwards."""
+def dash(job_pool):
+    """A Dashboard with all its views, no server or browser; closed like a session afterwards."""
     from app.dashboard import Dashboard
     from app.main import configure, warm_up
 
     configure()
-    warm_up()
-    d = Dashboard(sync_url=False)
+    warm_up(pool=False)
+    d = Dashboard(pool=job_pool)
     yield d
-    d._cancel_job()
-    for panel in d.panels:
-        panel.on_destroyed()
+    d.destroy()
+
+
+def wait_for(condition, timeout: float = 120.0, what: str = "") -> None:
+    """Wait until ``condition()`` is true (background jobs call back from their own thread)."""
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out waiting for {what or condition}")
+        time.sleep(0.05)

@@ -277,12 +277,12 @@ def _fake_dashboard(monkeypatch, serve):
 
 
 def test_serve_passes_port_address_show(monkeypatch, capsys):
-    """serve hands --port, --address and --show to the dashboard's serve()."""
+    """serve hands --port, --address, --show and -q to the dashboard's serve()."""
     seen = {}
     _fake_dashboard(monkeypatch, lambda **kw: seen.update(kw))
     code, _, err = run(["serve", "--port", "5123", "--address", "127.0.0.1", "--show"], capsys)
     assert code == 0, err
-    assert seen == {"port": 5123, "address": "127.0.0.1", "show": True}
+    assert seen == {"port": 5123, "address": "127.0.0.1", "show": True, "quiet": False}
 
 
 # ----- help and errors -------------------------------------------------------------------

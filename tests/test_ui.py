@@ -28,11 +28,6 @@ CHECKSUM = """() => {
   return s;
 }"""
 
-BIF_READY = """() => {
-  const m = Bokeh.documents[0].get_model_by_name('bif_image');
-  return m != null && m.get_length() > 0;
-}"""
-
 BIF_POINT = """(frac) => {
   const m = Bokeh.documents[0].get_model_by_name('bifurcation');
   const v = Bokeh.index.find_one(m);
@@ -41,6 +36,13 @@ BIF_POINT = """(frac) => {
   const sx = b.left + frac * b.width;
   return {x: r.left + sx, y: r.top + b.top + 0.5 * b.height, value: v.frame.x_scale.invert(sx)};
 }"""
+
+
+def wait_bif(page, timeout: float = 120_000) -> None:
+    """Wait until the bifurcation diagram is drawn (its status counts the values swept)."""
+    page.locator(".bif-status").filter(has_text="swept").first.wait_for(timeout=timeout)
+    page.wait_for_function("() => Bokeh.documents[0].get_model_by_name('bifurcation') != null",
+                           timeout=timeout)
 
 
 def open_dashboard(page, server, query: str = "") -> list[str]:
@@ -141,23 +143,24 @@ def test_time_history_zoom_survives_a_parameter_change(page, dashboard_server):
 
 
 def test_preset_loads_its_parameters(page, dashboard_server):
-    """One click on the Fig 8 preset sets Λ = 3.3, H₂/H₁ = 0.25 and the paper's φ₂ = 90° (core 180°)."""
+    """One click on the Fig 8 preset sets Λ = 3.3, H₂/H₁ = 0.25 and the paper's φ₂ = 90°."""
     open_dashboard(page, dashboard_server, "?lam=1.5&h2=0.1&phi2=10")
     wait_box(page, "lam", 1.5)
     before = page.evaluate(CHECKSUM)
     page.locator(".preset-Fig8 button").first.click()
     wait_box(page, "lam", 3.3)
     wait_box(page, "h2", 0.25)
-    wait_box(page, "phi2", 180.0)
+    wait_box(page, "phi2", 90.0)
     page.wait_for_function(f"() => Math.abs(({CHECKSUM})() - {before!r}) > 1e-6", timeout=20_000)
     page.locator(".rattle-badge[data-regime='E']").wait_for(timeout=20_000)
-    assert "phi2=180" in page.url
+    page.wait_for_function("() => window.location.search.includes('phi2=90')", timeout=10_000)
+    assert "phases=core" not in page.url
 
 
 def test_click_on_bifurcation_diagram_sets_lambda(page, dashboard_server):
     """Clicking the bifurcation diagram at some Λ moves the Λ control (and the views) there."""
     open_dashboard(page, dashboard_server)
-    page.wait_for_function(BIF_READY, timeout=120_000)
+    wait_bif(page)
     target = page.evaluate(BIF_POINT, 0.3)
     assert abs(target["value"] - 3.3) > 0.2
     before = page.evaluate(CHECKSUM)
@@ -169,8 +172,8 @@ def test_click_on_bifurcation_diagram_sets_lambda(page, dashboard_server):
 def test_zooming_the_bifurcation_diagram_refines_the_visible_region(page, dashboard_server):
     """Wheel-zooming into the Ĩ–Λ diagram triggers a finer background sweep of the visible Λ range."""
     open_dashboard(page, dashboard_server)
-    page.wait_for_function(BIF_READY, timeout=120_000)
-    status = page.locator(".bif-status p").first
+    wait_bif(page)
+    status = page.locator(".bif-status div").first
     assert "refined" not in status.inner_text()
     target = page.evaluate(BIF_POINT, 0.5)
     page.mouse.move(target["x"], target["y"])
@@ -236,7 +239,7 @@ def test_impacts_download_as_csv(page, dashboard_server):
     text = open(info.value.path(), encoding="utf-8").read().splitlines()
     assert text[0] == "t,phase,impulse,flank,w"
     assert len(text) - 1 == 100  # regime E: one impact per flank per period, 50 periods
-    assert info.value.suggested_filename.startswith("impacts_lam3.3")
+    assert info.value.suggested_filename.startswith("rattle_impacts_lam3.3_r0.65_j8_h2-0_")
 
 
 def test_no_request_leaves_localhost(page, dashboard_server):
@@ -263,14 +266,14 @@ def test_three_sessions_keep_their_own_state(browser, dashboard_server):
         b = box(pages[1], "lam")
         b.fill("2")
         b.press("Enter")
-        wait_box(pages[0], "phi2", 180.0)
+        wait_box(pages[0], "phi2", 90.0)
         wait_box(pages[1], "lam", 2.0)
         pages[1].wait_for_timeout(1000)
         sums = [p.evaluate(CHECKSUM) for p in pages]
         assert box_value(pages[0], "lam") == pytest.approx(3.3)
-        assert box_value(pages[1], "phi2") == pytest.approx(-135.0)
+        assert box_value(pages[1], "phi2") == pytest.approx(45.0)
         assert box_value(pages[2], "lam") == pytest.approx(3.3)
-        assert box_value(pages[2], "phi2") == pytest.approx(-135.0)
+        assert box_value(pages[2], "phi2") == pytest.approx(45.0)
         assert len({round(s, 6) for s in sums}) == 3
         assert all(math.isfinite(s) for s in sums)
     finally:

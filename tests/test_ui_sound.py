@@ -32,6 +32,13 @@ def audio_wav(page) -> tuple[int, np.ndarray]:
     return wavfile.read(io.BytesIO(base64.b64decode(data)))
 
 
+def wait_sound(page, timeout: float = 30_000) -> None:
+    """Wait until the audio element holds a WAV: the first sound follows the first run, which
+    the page draws after it has loaded."""
+    page.wait_for_function("(el) => el.src.length > 100",
+                           arg=page.locator(AUDIO).first.element_handle(), timeout=timeout)
+
+
 def wait_text(page, selector: str, stale: bool, timeout: float = 20_000) -> None:
     """Wait until the text of ``selector`` does (or does not) say the sound is stale."""
     waited, step = 0.0, 100
@@ -47,6 +54,7 @@ def test_page_holds_the_rattle_sound(page, dashboard_server):
     errors = open_dashboard(page, dashboard_server, "?lam=3.3&h2=0&periods=50")
     wait_box(page, "h2", 0.0)
     page.locator(AUDIO).first.wait_for(state="attached", timeout=20_000)
+    wait_sound(page)
     rate, data = audio_wav(page)
     assert rate == 44_100 and data.dtype == np.int16
     assert data.size == round((50 / DEFAULT_EXCITATION_HZ + DEFAULT_TAIL) * rate)
@@ -62,6 +70,7 @@ def test_render_after_a_parameter_change_replaces_the_sound(page, dashboard_serv
     wait_box(page, "h2", 0.0)
     audio = page.locator(AUDIO).first
     audio.wait_for(state="attached", timeout=20_000)
+    wait_sound(page)
     before = audio.evaluate(SRC_HASH)
     b = box(page, "lam")
     b.fill("2.6")

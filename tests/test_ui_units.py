@@ -18,7 +18,7 @@ pytestmark = [pytest.mark.ui, pytest.mark.timeout(300)]
 def test_engine_speed_typed_in_physical_units_sets_lambda(page, dashboard_server):
     """Units on, 2000 rpm typed: the Λ box shows the example gear's Λ at 2000 rpm; -5 rpm is refused."""
     errors = open_dashboard(page, dashboard_server)
-    rpm_box = page.locator(".units-rpm input.bk-input").first
+    rpm_box = page.locator(".ctl-rpm input.bk-input").first
     assert not rpm_box.is_visible()
     page.locator(".units-switch").first.click()
     rpm_box.wait_for(state="visible", timeout=20_000)
@@ -34,8 +34,8 @@ def test_engine_speed_typed_in_physical_units_sets_lambda(page, dashboard_server
 
     rpm_box.fill("-5")
     rpm_box.press("Enter")
-    page.locator(".msg-units-rpm").first.wait_for(state="visible", timeout=20_000)
-    text = message(page, "units-rpm")
+    page.locator(".msg-rpm").first.wait_for(state="visible", timeout=20_000)
+    text = message(page, "rpm")
     assert "rpm" in text and "(0, 100000]" in text
     assert abs(box_value(page, "lam") - expected) <= 1e-4
     assert not [e for e in errors if "Error" in e]

@@ -22,10 +22,10 @@ def test_link_with_physical_units_restores_the_mode(page, dashboard_server):
     expected = units.example().replace(rpm=2000.0, inertia=3e-4, drag_torque=0.03).lam
     wait_box(page, "lam", expected, tol=1e-4)
     expect(page.locator(".units-switch").first).to_have_attribute("aria-checked", "true")
-    rpm_box = page.locator(".units-rpm input.bk-input").first
+    rpm_box = page.locator(".ctl-rpm input.bk-input").first
     rpm_box.wait_for(state="visible", timeout=20_000)
     assert float(rpm_box.input_value()) == 2000.0
-    assert float(page.locator(".units-inertia input.bk-input").first.input_value()) == 3e-4
+    assert float(page.locator(".ctl-inertia input.bk-input").first.input_value()) == 3e-4
     expect(page.locator(".units-table table.units-params").first).to_contain_text("2000 rpm")
     page.wait_for_function("() => window.location.search.includes('units=1')", timeout=10_000)
     assert "rpm=2000" in page.url and "C=0.03" in page.url
@@ -39,10 +39,10 @@ def test_garbage_physical_link_values_show_messages(page, dashboard_server):
     errors = open_dashboard(page, dashboard_server, "?units=1&rpm=abc&C=0.03")
     expected = units.example().replace(drag_torque=0.03).lam
     wait_box(page, "lam", expected, tol=1e-4)
-    page.locator(".msg-units-rpm").first.wait_for(state="visible", timeout=20_000)
-    text = message(page, "units-rpm")
+    page.locator(".msg-rpm").first.wait_for(state="visible", timeout=20_000)
+    text = message(page, "rpm")
     assert "rpm" in text and "(0, 100000]" in text and "Kept 1500" in text
-    assert float(page.locator(".units-rpm input.bk-input").first.input_value()) == 1500.0
+    assert float(page.locator(".ctl-rpm input.bk-input").first.input_value()) == 1500.0
     page.wait_for_function("() => !window.location.search.includes('abc')", timeout=10_000)
     assert "rpm=1500" in page.url
     assert abs(box_value(page, "lam") - expected) <= 1e-4

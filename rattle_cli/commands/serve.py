@@ -15,8 +15,7 @@ def add_parser(sub) -> None:
                    help="address to listen on (default localhost; 0.0.0.0 for every interface)")
     p.add_argument("--show", action="store_true", help="open a browser tab")
     d = p.add_argument_group("2-D maps on Dask (default: the server's own cores)",
-                             "The default of the Maps tab's 'Dask scheduler' field, for every "
-                             "session; each session may still change it.")
+                             "Where every session's maps run; no page can change it.")
     d.add_argument("--scheduler", metavar="tcp://HOST:PORT",
                    help="run the dashboard's maps on this Dask scheduler")
     d.add_argument("--dask", choices=("local",),
@@ -29,7 +28,7 @@ def run(args: argparse.Namespace) -> int:
         raise CLIError(f"--port {args.port} is outside the allowed range [1, 65535]")
     if args.scheduler is not None and args.dask is not None:
         raise CLIError("give --dask local or --scheduler ADDRESS, not both")
-    kwargs = {"port": args.port, "address": args.address, "show": args.show}
+    kwargs = {"port": args.port, "address": args.address, "show": args.show, "quiet": args.quiet}
     if args.scheduler is not None:
         if "://" not in args.scheduler or not args.scheduler.split("://", 1)[1]:
             raise CLIError(f"--scheduler {args.scheduler!r}: give a Dask scheduler address such as "
@@ -39,8 +38,7 @@ def run(args: argparse.Namespace) -> int:
         kwargs["dask"] = args.dask
     # the repository's app/ folder, installed as rattle_app (see the README)
     from rattle_app.main import serve
-    info(args, f"serving the dashboard on http://{args.address}:{args.port}/ (Ctrl+C stops)")
-    try:
+    try:  # serve() prints the address itself, once the port answers
         serve(**kwargs)
     except KeyboardInterrupt:  # Ctrl+C is how a server is meant to stop
         info(args, "stopped")

@@ -44,7 +44,7 @@ from .files import load_map, load_result, save_map, save_result
 DEFAULT_SIZE_MB = 1024
 SIZE_MB_RANGE = (0.0, 1.0e7)
 #: File-name prefixes of cache entries; nothing else in the directory is ever deleted.
-PREFIXES = ("sweep", "map")
+PREFIXES = ("sweep", "map", "cont")
 _SWEEP_SETTINGS = ("transient", "record", "mode", "x0", "v0")
 _MAP_SETTINGS = ("transient", "record", "x0", "v0", "decimals")
 
@@ -193,7 +193,7 @@ def cached_map(kind: str, params: RattleParams, x_name: str, x_values, y_name: s
 
 @dataclasses.dataclass(frozen=True)
 class Entry:
-    """One cache file: its path, kind (``sweep`` or ``map``), size in bytes and last use."""
+    """One cache file: its path, kind (``sweep``, ``map`` or ``cont``, a continued branch), size in bytes and last use."""
 
     path: Path
     kind: str

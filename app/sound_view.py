@@ -1,46 +1,42 @@
-"""The rattle sound of the current trajectory: a card in the Explorer tab.
+"""The rattle sound of the current run: a card in the Explorer tab.
 
-The card plays :func:`rattle_core.analysis.sound.synthesize` of ``dashboard.tr`` (its first N periods),
-normalised to a peak of 0.99 because ``pn.pane.Audio`` turns floats into int16 as
-``int16(x × 32768)``, without clipping. It offers the sound's own settings (periods to play,
-excitation frequency, housing modes, polarity, sample rate), a 16-bit WAV download and one line
-saying what the user should hear.
+A ``pn.viewable.Viewer`` that plays :func:`rattle_core.sound.synthesize` of ``state.result``
+(its first N periods), normalised to a peak of 0.99 because ``pn.pane.Audio`` turns floats
+into int16 as ``int16(x × 32768)``, without clipping. It offers the sound's own settings
+(periods to play, excitation frequency, housing modes, polarity, sample rate), a 16-bit WAV
+download and one line saying what the run sounds like. These settings belong to the card, not
+to the model, so they are not part of the state or the URL; a refused value leaves its message
+beside its control (escaped text) and the last good setting.
 
 Time scale: in dimensionless mode the fundamental excitation frequency is the one set here; in
-physical-units mode (``dashboard.physical`` is a :class:`~rattle_core.model.units.PhysicalParams`) it
-follows the engine speed, ``f = order × rpm / 60``, and the card says so.
+physical-units mode (``result.phys``) it follows the engine speed, ``f = order × rpm / 60``.
 
-Cost: ``synthesize`` takes about 20 ms for the default 200 periods at 50 Hz and 44.1 kHz
-(4.15 s of sound, five modes), and each new sound sends about 0.5 MB of base64 WAV to the
-browser. That is too much for the slider path, so :meth:`SoundPanel.on_redraw` only marks the
-sound stale (and says so on the card); the sound is rendered when the user presses
-"Render / play", at every redraw only while "auto" is on, and at once when one of the sound's own
-settings changes. The very first redraw of a session renders, so the page opens with a sound.
+Cost: ``synthesize`` takes about 20 ms for 200 periods at 50 Hz and 44.1 kHz, and each new
+sound sends about 0.5 MB of base64 WAV to the browser: too much for the slider path. A new run
+only marks the sound stale (the card says so, and its description follows the new run at
+once); the sound is rendered on "Render / play", at every run while "auto" is on, and at once
+when one of the sound's own settings changes. The first sound is rendered once the page has
+loaded, so it never delays the first plot.
 """
 from __future__ import annotations
 
-import dataclasses
 import functools
 import io
 import logging
 import math
 import time
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import panel as pn
+import param
 
-from rattle_core.model.excitation import TWO_PI
-from rattle_core.model.params import check_range
-from rattle_core.analysis.sound import (DEFAULT_EXCITATION_HZ, DEFAULT_MODES, DEFAULT_SAMPLE_RATE,
-                               DEFAULT_TAIL, EXCITATION_HZ_RANGE, HousingMode, parse_modes,
-                               synthesize, write_wav)
-from rattle_core.model.units import PhysicalParams
-
-from .panel_base import FeaturePanel, guard
-
-if TYPE_CHECKING:
-    from .dashboard import Dashboard
+from .core import (DEFAULT_EXCITATION_HZ, DEFAULT_MODES, DEFAULT_SAMPLE_RATE, DEFAULT_TAIL,
+                   EXCITATION_HZ_RANGE, TWO_PI, HousingMode, PhysicalParams, check_range,
+                   parse_modes, synthesize, write_wav)
+from .state import ExplorerState
+from .labels import message_html, what_to_hear
+from .plots import first_periods
 
 log = logging.getLogger(__name__)
 
@@ -58,63 +54,30 @@ SETTINGS = ("periods", "excitation", "modes", "polarity", "sample_rate")
 
 
 def format_modes(modes: tuple[HousingMode, ...]) -> str:
-    """Modes as the text :func:`~rattle_core.analysis.sound.parse_modes` reads back."""
+    """Modes as the text :func:`~rattle_core.sound.parse_modes` reads back."""
     return ", ".join(f"{m.freq_hz:g}:{m.damping:g}:{m.gain:g}" for m in modes)
 
 
-def first_periods(tr, periods: int):
-    """``tr`` cut to its first ``periods`` forcing periods (``tr`` itself if it is not longer).
-
-    Only what the sound uses is kept consistent: the window and the impacts, strobe samples and
-    segments inside it.
-    """
-    if periods >= tr.periods - 1e-9:
-        return tr
-    t_end = tr.t_start + periods * TWO_PI
-    imp = tr.impact_t < t_end
-    strobe = tr.strobe_t < t_end
-    seg = tr.seg_t < t_end
-    return dataclasses.replace(
-        tr, t_end=t_end, impact_t=tr.impact_t[imp], impact_phase=tr.impact_phase[imp],
-        impact_impulse=tr.impact_impulse[imp], impact_flank=tr.impact_flank[imp],
-        impact_w=tr.impact_w[imp], strobe_t=tr.strobe_t[strobe], strobe_x=tr.strobe_x[strobe],
-        strobe_v=tr.strobe_v[strobe], seg_t=tr.seg_t[seg], seg_kind=tr.seg_kind[seg],
-        seg_x=tr.seg_x[seg], seg_v=tr.seg_v[seg])
+def guarded(method):
+    """A card callback: an exception becomes a message beside the render button."""
+    @functools.wraps(method)
+    def wrapper(self, *args: Any, **kwargs: Any) -> Any:
+        try:
+            return method(self, *args, **kwargs)
+        except Exception as exc:
+            log.warning("sound: %s failed: %s: %s", method.__name__, type(exc).__name__, exc)
+            self.show_error("render", f"{type(exc).__name__}: {exc}")
+            return None
+    return wrapper
 
 
-def what_to_hear(classification, impacts: int, seconds: float, freq_hz: float) -> str:
-    """One line: impacts per second and the regime, as the ear meets them."""
-    if classification is None:
-        return ""
-    c = classification
-    if impacts == 0:
-        if c.regime in ("A", "B") or c.stick_fraction > 0:
-            return ("**Silence**: the gear rides the driving tooth (permanent contact), "
-                    "so nothing strikes the housing.")
-        return "**Silence**: no impact in the periods played."
-    rate = c.impacts_per_period * freq_hz
-    if c.regime == "B":
-        return (f"**Chatter, then silence**: {impacts} impacts in {seconds:.2f} s, then the gear "
-                f"sticks to the tooth ({100 * c.stick_fraction:.2g}% of the time) and the housing "
-                "rings out.")
-    if c.regime == "D":
-        stick = " with silent stick phases" if c.stick_fraction > 0 else ""
-        return f"**Chaotic rattle**{stick}: irregular impacts, about {rate:.4g} per second."
-    if c.regime == "Q":
-        return f"**Irregular rattle** (non-repeating): about {rate:.4g} impacts per second."
-    return (f"**Periodic buzz**: {rate:.4g} impacts per second, repeating every {c.period} "
-            f"period{'s' if c.period > 1 else ''} ({freq_hz / max(c.period, 1):.4g} Hz).")
-
-
-#: Callbacks of the card: an exception becomes a message beside its render button.
-guarded = guard("render")
-
-
-class SoundPanel(FeaturePanel):
+class SoundView(pn.viewable.Viewer):
     """The "Rattle sound" card: an audio player, its settings and a WAV export."""
 
-    def __init__(self, dashboard: "Dashboard"):
-        super().__init__(dashboard)
+    state = param.ClassSelector(class_=ExplorerState)
+
+    def __init__(self, **params: Any):
+        super().__init__(**params)
         #: Last accepted value of every setting; a rejected entry leaves these unchanged.
         self.settings: dict[str, Any] = {
             "periods": DEFAULT_PERIODS, "excitation": DEFAULT_EXCITATION_HZ,
@@ -125,7 +88,8 @@ class SoundPanel(FeaturePanel):
         self.render_ms = math.nan
         self._rendered: dict[str, Any] = {}
         self._scale_text = ""
-        self._first = True
+        self._first = True  # the first sound renders once the page is up and a run exists
+        self._loaded = False
         self._syncing = False
         self._build()
 
@@ -161,10 +125,11 @@ class SoundPanel(FeaturePanel):
                 value=format_modes(s["modes"]), placeholder=format_modes(DEFAULT_MODES),
                 css_classes=["sound-modes"], sizing_mode="stretch_width"),
         }
-        self.alerts = {name: pn.pane.Alert("", alert_type="danger", visible=False, margin=(0, 10),
-                                           css_classes=[f"msg-sound-{name}"],
-                                           sizing_mode="stretch_width")
+        self.alerts = {name: pn.pane.HTML("", visible=False, margin=(0, 10),
+                                          css_classes=[f"msg-sound-{name}"], sizing_mode="stretch_width")
                        for name in (*SETTINGS, "render")}
+        #: The message beside each control, as plain text ("" when none).
+        self.messages = {name: "" for name in self.alerts}
         self.hear = pn.pane.Markdown("", css_classes=["sound-hear"], margin=(0, 10),
                                      sizing_mode="stretch_width")
         self.status = pn.pane.Markdown("", css_classes=["sound-status"], margin=(0, 10),
@@ -190,15 +155,25 @@ class SoundPanel(FeaturePanel):
                              styles={"color": "#777", "font-size": "12px"}),
             title="Rattle sound", collapsed=False, sizing_mode="stretch_width",
             css_classes=["sound-card"])
-        self.explorer = [self.card]
+        self.state.param.watch(self._on_result, "result")
+        doc = pn.state.curdoc
+        if doc is not None and doc.session_context is not None:
+            pn.state.onload(self._on_load)
+        else:
+            self._on_load()
+
+    def __panel__(self):
+        return self.card
 
     # ----- messages -----------------------------------------------------------------------
 
     def show_error(self, name: str, message: str) -> None:
-        alert = self.alerts.get(name, self.alerts["render"])
-        alert.param.update(object=message, visible=True)
+        name = name if name in self.alerts else "render"
+        self.messages[name] = message
+        self.alerts[name].param.update(object=message_html(message), visible=True)
 
     def clear_error(self, name: str) -> None:
+        self.messages[name] = ""
         alert = self.alerts[name]
         if alert.visible:
             alert.param.update(object="", visible=False)
@@ -215,7 +190,8 @@ class SoundPanel(FeaturePanel):
                 raise ValueError(f"periods to play = {value!r} must be a whole number in [{lo}, {hi}]")
             return int(v)
         if name == "excitation":
-            return check_range("excitation f (Hz)", value, *EXCITATION_HZ_RANGE, lo_open=True, text_ok=True)
+            return check_range("excitation f (Hz)", value, *EXCITATION_HZ_RANGE, lo_open=True,
+                               text_ok=True)
         if name == "modes":
             return parse_modes(value)
         if name == "polarity":
@@ -253,7 +229,7 @@ class SoundPanel(FeaturePanel):
             return True
         self.settings[name] = old
         self._revert_widget(name)
-        self.show_error(name, f"{self.alerts[name].object} {self._kept(name)}")
+        self.show_error(name, f"{self.messages[name]} {self._kept(name)}")
         return False
 
     def _kept(self, name: str) -> str:
@@ -285,8 +261,8 @@ class SoundPanel(FeaturePanel):
     # ----- rendering ----------------------------------------------------------------------
 
     def physical(self) -> PhysicalParams | None:
-        phys = getattr(self.dashboard, "physical", None)
-        return phys if isinstance(phys, PhysicalParams) else None
+        run = self.state.result
+        return run.phys if run is not None else None
 
     def excitation_hz(self) -> float:
         """The fundamental frequency the sound is played at [Hz]."""
@@ -327,9 +303,10 @@ class SoundPanel(FeaturePanel):
         On failure the message goes beside the setting ``source`` (or the one it names) and
         the last good sound stays. Returns whether a new sound was loaded.
         """
-        tr = self.dashboard.tr
-        if tr is None:
+        run = self.state.result
+        if run is None:
             return False
+        tr = run.tr
         t0 = time.perf_counter()
         s = self.settings
         phys = self.physical()
@@ -356,15 +333,14 @@ class SoundPanel(FeaturePanel):
         self._rendered = dict(s, freq=freq, physical=phys, periods_played=window.periods)
         self.download.filename = self.filename()
         seconds = signal.size / rate
-        self.hear.object = what_to_hear(self.dashboard.classification, int(window.impact_t.size),
-                                        seconds, freq)
+        self.hear.object = what_to_hear(run.cls, int(window.impact_t.size), seconds, freq)
         self.render_ms = 1e3 * (time.perf_counter() - t0)
         self._update_status()
         return True
 
     def filename(self) -> str:
         """WAV file name carrying the parameters of the sound last rendered."""
-        p = self.dashboard.params
+        p = self.state.result.params
         r = self._rendered
         phys = r.get("physical")
         scale = f"{phys.rpm:g}rpm-o{phys.order:g}" if phys is not None else f"{r['freq']:g}Hz"
@@ -389,12 +365,32 @@ class SoundPanel(FeaturePanel):
             self.show_error("render", f"The WAV could not be written: {exc}")
             return io.BytesIO(b"")
 
-    # ----- the dashboard's hooks -----------------------------------------------------------
+    # ----- following the runs ------------------------------------------------------------
 
     @guarded
-    def on_redraw(self) -> None:
-        first, self._first = self._first, False
-        if (first or self.auto.value) and self.render():
+    def _on_load(self) -> None:
+        self._loaded = True
+        self._first_render()
+
+    def _first_render(self) -> None:
+        # the first run may land after the page has loaded (it is drawn after load)
+        if self._first and self._loaded and self.state.result is not None:
+            self._first = False
+            self.render()
+
+    @guarded
+    def _on_result(self, *_: Any) -> None:
+        if self._first:
+            self._first_render()
+            return
+        if self.auto.value and self.render():
             return
         self.stale = True
+        run = self.state.result
+        if run is not None:
+            window = first_periods(run.tr, self.settings["periods"])
+            freq = self.excitation_hz()
+            seconds = (window.t_end - window.t_start) / (TWO_PI * freq)
+            self.hear.object = (what_to_hear(run.cls, int(window.impact_t.size), seconds, freq)
+                                + " *(press Render / play to hear it)*")
         self._update_status()

@@ -1,7 +1,7 @@
 """The dashboard's rattle-sound card, without a browser.
 
 The sound the card plays and exports is checked against the library's own
-:func:`rattle_core.analysis.sound.synthesize` of the dashboard's trajectory, and against the trajectory
+:func:`rattle_core.sound.synthesize` of the dashboard's trajectory, and against the trajectory
 itself: every impact is an onset in the signal, a gear stuck to its tooth is silent, and the
 physical-units mode stretches the sound by the engine speed.
 """
@@ -14,32 +14,39 @@ import numpy as np
 import pytest
 from scipy.io import wavfile
 
-from app import sound_panel
-from app.state import apply_values
+from app import sound_view
 from rattle_core.model.excitation import TWO_PI
 from rattle_core.analysis.sound import (DEFAULT_EXCITATION_HZ, DEFAULT_TAIL, PEAK, parse_modes, synthesize,
                                to_int16)
-from rattle_core.model.units import PhysicalParams
 
 HARMONIC = {"h2": 0.0, "phi2": 0.0, "harmonics": ""}
 
 
-def sound(d) -> sound_panel.SoundPanel:
-    return next(p for p in d.panels if isinstance(p, sound_panel.SoundPanel))
+def sound(d) -> sound_view.SoundView:
+    return d.sound
+
+
+def tr_of(d):
+    return d.state.result.tr
+
+
+def apply_values(state, values) -> dict:
+    state.param.update(**values)
+    return {k: v for k, v in state.messages.items() if k in values}
 
 
 def test_player_holds_the_synthesized_sound_at_peak_099(dash):
     """The page opens with the sound of its trajectory: synthesize's samples, rate and peak 0.99."""
     sp = sound(dash)
-    assert dash.tr.periods == pytest.approx(sp.settings["periods"])  # the whole run is played
-    expected, rate = synthesize(dash.tr)
+    assert tr_of(dash).periods == pytest.approx(sp.settings["periods"])  # the whole run is played
+    expected, rate = synthesize(tr_of(dash))
     assert sp.audio.sample_rate == rate == 44_100
     np.testing.assert_array_equal(sp.audio.object, expected)
     assert np.max(np.abs(sp.audio.object)) == pytest.approx(PEAK, rel=1e-12)
-    assert sp in dash.panels and sp.card in sp.explorer
+    assert sp.__panel__() is sp.card
 
     sp.widgets["sample_rate"].value = 22_050
-    expected, rate = synthesize(dash.tr, sample_rate=22_050)
+    expected, rate = synthesize(tr_of(dash), sample_rate=22_050)
     assert sp.audio.sample_rate == rate == 22_050
     np.testing.assert_array_equal(sp.audio.object, expected)
 
@@ -48,17 +55,17 @@ def test_wav_download_decodes_to_the_int16_samples(dash):
     """The WAV export decodes to to_int16 of the sound, and renders a stale sound first."""
     sp = sound(dash)
     rate, data = wavfile.read(io.BytesIO(sp.download.callback().getvalue()))
-    signal, expected_rate = synthesize(dash.tr)
+    signal, expected_rate = synthesize(tr_of(dash))
     assert rate == expected_rate and data.dtype == np.int16
     np.testing.assert_array_equal(data, to_int16(signal))
     assert "lam3.3" in sp.download.filename and "50Hz" in sp.download.filename
     assert sp.download.filename.endswith("_44100.wav")
 
     sp.widgets["polarity"].value = "absolute"
-    dash.widgets["lam"].value = 2.9
+    dash.state.lam = 2.9
     assert sp.stale
     rate, data = wavfile.read(io.BytesIO(sp.download.callback().getvalue()))
-    np.testing.assert_array_equal(data, to_int16(synthesize(dash.tr, polarity="absolute")[0]))
+    np.testing.assert_array_equal(data, to_int16(synthesize(tr_of(dash), polarity="absolute")[0]))
     assert "lam2.9" in sp.download.filename and "absolute" in sp.download.filename
     assert not sp.stale
 
@@ -67,10 +74,10 @@ def test_every_impact_is_an_onset_in_regime_e(dash):
     """Regime E (harmonic, Λ = 3.3): the housing rings up at each impact, not between them."""
     sp = sound(dash)
     assert not apply_values(dash.state, {"lam": 3.3, **HARMONIC})
-    assert dash.classification.regime == "E"
+    assert dash.state.result.cls.regime == "E"
     assert sp.render()
     s, rate = sp.audio.object, sp.audio.sample_rate
-    tr = dash.tr
+    tr = tr_of(dash)
     k = np.ceil((tr.impact_t - tr.t_start) / (TWO_PI * DEFAULT_EXCITATION_HZ) * rate).astype(int)
     w = int(5e-4 * rate)
 
@@ -91,7 +98,7 @@ def test_sticking_gear_falls_silent_after_the_chatter(dash):
     sp = sound(dash)
     assert not apply_values(dash.state, {"lam": 0.8, "transient": 0, "periods": 50, **HARMONIC})
     sp.widgets["periods"].value = 50
-    tr = dash.tr
+    tr = tr_of(dash)
     assert tr.impact_t.size > 0 and tr.stick_intervals[-1, 1] == pytest.approx(tr.t_end)
     s, rate = sp.audio.object, sp.audio.sample_rate
     np.testing.assert_array_equal(s, synthesize(tr)[0])
@@ -114,14 +121,14 @@ def test_invalid_modes_show_a_message_and_keep_the_last_good_sound(dash):
                            ("", "holds no mode")):
         sp.widgets["modes"].value = text
         alert = sp.alerts["modes"]
-        assert alert.visible and fragment in alert.object, text
-        assert "Kept modes = 1250:0.02:1" in alert.object
+        assert alert.visible and fragment in sp.messages["modes"], text
+        assert "Kept modes = 1250:0.02:1" in sp.messages["modes"]
         assert sp.audio.object is before
         assert sp.widgets["modes"].value == text  # left as typed, to be corrected
     sp.widgets["modes"].value = "1000:0.05:1, 3000:0.01:0.5"
     assert not sp.alerts["modes"].visible
     np.testing.assert_array_equal(
-        sp.audio.object, synthesize(dash.tr, modes=parse_modes("1000:0.05:1, 3000:0.01:0.5"))[0])
+        sp.audio.object, synthesize(tr_of(dash), modes=parse_modes("1000:0.05:1, 3000:0.01:0.5"))[0])
 
 
 @pytest.mark.parametrize("name,value,fragment,kept", [
@@ -138,39 +145,39 @@ def test_bad_settings_leave_a_message_and_the_last_good_value(dash, name, value,
     before = sp.audio.object
     sp.widgets[name].value = value
     alert = sp.alerts[name]
-    assert alert.visible and fragment in alert.object
+    assert alert.visible and fragment in sp.messages[name]
     assert sp.settings[name] == kept and sp.widgets[name].value == kept
     assert sp.audio.object is before and not sp.alerts["render"].visible
 
 
 def test_slider_moves_only_mark_the_sound_stale_unless_auto(dash, monkeypatch):
-    """on_redraw never synthesises (the card says the sound is stale) until auto is on."""
+    """a new run never synthesises (the card says the sound is stale) until auto is on."""
     sp = sound(dash)
     calls = []
-    real = sound_panel.synthesize
-    monkeypatch.setattr(sound_panel, "synthesize", lambda *a, **k: calls.append(1) or real(*a, **k))
+    real = sound_view.synthesize
+    monkeypatch.setattr(sound_view, "synthesize", lambda *a, **k: calls.append(1) or real(*a, **k))
     before = sp.audio.object
-    dash.widgets["lam"].value = 3.0
+    dash.state.lam = 3.0
     assert calls == [] and sp.stale and "Stale" in sp.status.object
     assert sp.audio.object is before
     sp.render_button.clicks += 1
     assert calls == [1] and not sp.stale and "Stale" not in sp.status.object
-    np.testing.assert_array_equal(sp.audio.object, real(dash.tr)[0])
+    np.testing.assert_array_equal(sp.audio.object, real(tr_of(dash))[0])
     assert sp.audio.paused is False
     sp.auto.value = True
-    dash.widgets["lam"].value = 3.1
+    dash.state.lam = 3.1
     assert len(calls) == 2 and not sp.stale
-    np.testing.assert_array_equal(sp.audio.object, real(dash.tr)[0])
+    np.testing.assert_array_equal(sp.audio.object, real(tr_of(dash))[0])
 
 
 def test_periods_to_play_cut_the_trajectory(dash):
     """Playing N periods of a longer run is the sound of its first N periods, no longer."""
     sp = sound(dash)
     sp.widgets["periods"].value = 20
-    tr = dash.tr
+    tr = tr_of(dash)
     s, rate = sp.audio.object, sp.audio.sample_rate
     assert s.size == round((20 / DEFAULT_EXCITATION_HZ + DEFAULT_TAIL) * rate)
-    cut = sound_panel.first_periods(tr, 20)
+    cut = sound_view.first_periods(tr, 20)
     assert cut.impact_t.size == np.count_nonzero(tr.impact_t < tr.t_start + 20 * TWO_PI) > 0
     np.testing.assert_array_equal(s, synthesize(cut)[0])
     # over those 20 periods it is the whole run's sound, scaled to its own peak
@@ -185,33 +192,32 @@ def test_periods_to_play_cut_the_trajectory(dash):
 def test_physical_mode_follows_the_engine_speed(dash):
     """In physical units the sound lasts periods / (order × rpm / 60) + tail, and the card says so."""
     sp = sound(dash)
+    s = dash.state
+    s.param.update(units=True, **HARMONIC)
     lengths = {}
     for rpm in (1200.0, 2400.0):
-        phys = PhysicalParams(inertia=1e-3, radius=0.05, drag_torque=0.02, backlash=4e-4, rpm=rpm,
-                              amplitudes=(1e-3,))
-        p = phys.to_dimensionless()
-        assert not apply_values(dash.state, {"lam": p.lam, "j": p.j, "r": p.r, **HARMONIC})
-        dash.physical = phys
+        s.rpm = rpm
+        phys = s.result.phys
+        assert phys is not None and phys.rpm == rpm
         assert sp.render()
-        s, rate = sp.audio.object, sp.audio.sample_rate
-        np.testing.assert_array_equal(s, synthesize(dash.tr, physical=phys)[0])
-        assert s.size == round((200 / (2 * rpm / 60) + DEFAULT_TAIL) * rate)
+        sig, rate = sp.audio.object, sp.audio.sample_rate
+        np.testing.assert_array_equal(sig, synthesize(tr_of(dash), physical=phys)[0])
+        assert sig.size == round((200 / (2 * rpm / 60) + DEFAULT_TAIL) * rate)
         assert f"{rpm:g} rpm" in sp.status.object and sp.widgets["excitation"].disabled
         assert f"{rpm:g}rpm" in sp.download.filename
-        lengths[rpm] = s.size / rate - DEFAULT_TAIL
+        lengths[rpm] = sig.size / rate - DEFAULT_TAIL
     assert lengths[1200.0] == pytest.approx(2 * lengths[2400.0])
-    dash.physical = None
+    s.units = False
     assert sp.render()
     assert sp.audio.object.size == round((200 / DEFAULT_EXCITATION_HZ + DEFAULT_TAIL) * 44_100)
     assert not sp.widgets["excitation"].disabled and "Dimensionless" in sp.status.object
 
 
-def test_physical_mode_that_does_not_match_the_trajectory_is_a_message(dash):
-    """A physical set whose Λ differs from the trajectory's is refused beside the card's controls."""
+def test_description_follows_every_run_even_before_a_render(dash):
+    """The card never describes an old run: after a move to regime A it says silence at once."""
     sp = sound(dash)
-    before = sp.audio.object
-    dash.physical = PhysicalParams(inertia=1e-3, radius=0.05, drag_torque=0.02, backlash=4e-4,
-                                   rpm=1200.0, amplitudes=(1e-3,))
-    assert not sp.render()
-    assert sp.alerts["render"].visible and "physical gives lam" in sp.alerts["render"].object
-    assert sp.audio.object is before
+    assert "Chaotic rattle" in sp.hear.object
+    dash.state.param.update(lam=0.8, **HARMONIC)
+    assert dash.state.result.cls.regime in ("A", "B") and sp.stale
+    assert "Silence" in sp.hear.object or "silence" in sp.hear.object
+    assert "Chaotic" not in sp.hear.object and "e+" not in sp.hear.object

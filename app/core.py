@@ -1,0 +1,54 @@
+"""What the dashboard takes from ``rattle_core`` beyond its top-level names, in one place.
+
+The app imports ``RattleParams``, ``simulate``, ``classify``, ``sweep`` and the other public
+names from ``rattle_core`` itself. Everything else it needs (ranges, the physical-units
+module, the vocabulary of regimes, maps, the paper's cases, the disk cache) is re-exported
+here from the core's layers, so a reorganisation of the core changes this file only.
+"""
+from __future__ import annotations
+
+from functools import partial
+
+from rattle_core import units
+from rattle_core.analysis.continuation import (CONTINUATION_VERSION, ContinuationResult,
+                                                continue_orbit, find_orbit)
+from rattle_core.analysis.overlays import contact_boundary
+from rattle_core.analysis.sound import (DEFAULT_EXCITATION_HZ, DEFAULT_MODES,
+                                        DEFAULT_SAMPLE_RATE, DEFAULT_TAIL, EXCITATION_HZ_RANGE,
+                                        HousingMode, parse_modes, synthesize, write_wav)
+from rattle_core.analysis.vocabulary import (REGIME_CODES, REGIME_COLOURS, REGIME_MEANING,
+                                             physical_table)
+from rattle_core.batch.plan import PHYSICAL_AXES as MAP_PHYSICAL_AXES
+from rattle_core.batch.plan import plan_map, point_params
+from rattle_core.model.excitation import TWO_PI, excitation
+from rattle_core.model.params import (AMPLITUDE_RANGE, J_RANGE, LAM_RANGE, MAX_HARMONICS,
+                                      PHASE_RANGE_DEG, R_RANGE, V_STICK_RANGE, check_range)
+from rattle_core.model.phases import core_to_paper, paper_to_core, paper_to_core_phases
+from rattle_core.model.units import PhysicalParams
+from rattle_core.paper.cases import CASES as PAPER_CASES
+from rattle_core.store.assets import find_asset, list_assets, load_asset
+from rattle_core.store.cache import cached, cached_sweep
+from rattle_core.store.files import atomic_savez
+from rattle_core.store.exports import impacts_frame
+from rattle_core.store.requests import run_map
+from rattle_core.solver.trajectory import SOLVER_VERSION
+
+#: Regime letter → meaning, for the letters a classification gives.
+REGIMES = {k: v for k, v in REGIME_MEANING.items() if k != "error"}
+#: φ₂ between the conventions, unwrapped so that a sweep of the paper's phase stays monotone.
+paper_phi2_to_core = partial(paper_to_core, k=2, wrap=False)
+core_phi2_to_paper = partial(core_to_paper, k=2, wrap=False)
+#: The conversion of all phases is its own inverse.
+core_to_paper_phases = paper_to_core_phases
+
+__all__ = [
+    "CONTINUATION_VERSION", "ContinuationResult", "SOLVER_VERSION", "continue_orbit",
+    "find_orbit", "atomic_savez", "cached", "cached_sweep", "find_asset", "list_assets", "load_asset", "contact_boundary", "excitation",
+    "units", "PhysicalParams", "REGIMES", "TWO_PI", "MAP_PHYSICAL_AXES", "REGIME_CODES",
+    "REGIME_COLOURS", "plan_map", "point_params", "run_map", "PAPER_CASES",
+    "core_phi2_to_paper", "paper_phi2_to_core", "AMPLITUDE_RANGE", "J_RANGE", "LAM_RANGE",
+    "MAX_HARMONICS", "PHASE_RANGE_DEG", "R_RANGE", "V_STICK_RANGE", "check_range",
+    "core_to_paper_phases", "paper_to_core_phases", "DEFAULT_EXCITATION_HZ", "DEFAULT_MODES",
+    "DEFAULT_SAMPLE_RATE", "DEFAULT_TAIL", "EXCITATION_HZ_RANGE", "HousingMode", "parse_modes",
+    "synthesize", "write_wav", "physical_table", "impacts_frame",
+]

@@ -1,0 +1,314 @@
+"""The bifurcation diagram: impulses against Λ, φ₂ or (physical units) engine speed.
+
+A ``pn.viewable.Viewer`` over the state. The diagram's sweep comes from the shipped assets,
+the disk cache, or a background job (:class:`app.session.SessionJobs`); it is recomputed
+only when a parameter other than the swept one changes, while the current-value marker
+follows every run. The x-range is the whole range asked for, stretched to hold the current
+value, so the marker, the rattle-free range, the onset of rattle (Λ_c) and the first chaotic
+value are on the plot, marked and labelled. Impacts are shaded by flank with datashader
+(``datashade`` and ``dynspread``); a zoom recomputes the visible region finer (a ``RangeXY``
+stream), and a click (a ``Tap`` stream) sets the swept parameter. In physical units the
+diagram runs against engine speed and shows impulses in N·s.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import datashader as ds
+import holoviews as hv
+import numpy as np
+import pandas as pd
+import panel as pn
+import param
+from holoviews.operation.datashader import datashade, dynspread
+
+from . import work
+from .diagram_data import (RECORD, TRANSIENT, ZOOM_VALUES, Diagram, current_value, diagram_key,
+                           from_work, marks, one_sided, request, shipped)
+from .continuation_view import branch_overlay
+from .state import ExplorerState
+from .labels import ACTIVE_COLOR, CHAOS_COLOR, MARK_COLOR, ONSET_COLOR, REVERSE_COLOR, num
+from .plots import TOOLS, Zoom, weak_hook, caption, file_stem, padded, save_as
+from .widgets import Choice, deferred, later, message, set_value
+
+OPTIONS = {"Ĩ vs Λ": "lam", "Ĩ vs φ₂": "phi2"}
+UNITS_OPTIONS = {"I vs engine speed": "rpm", "Ĩ vs φ₂": "phi2"}
+AXES = {"lam": "Λ", "phi2-paper": "φ₂ [°], the paper's convention (Figure 6)",
+        "phi2-core": "φ₂ [°], the core's convention", "rpm": "engine speed [rpm]"}
+PIXELS = (640, 340)
+COLORS = {"active": ACTIVE_COLOR, "reverse": REVERSE_COLOR}
+
+
+class DiagramView(pn.viewable.Viewer):
+    """Ĩ against the swept parameter, computed in the background; see the module docstring."""
+
+    state = param.ClassSelector(class_=ExplorerState)
+    jobs = param.Parameter()
+    revision = param.Integer(0, doc="bumped when new diagram data arrive")
+    marks_revision = param.Integer(0, doc="bumped when the marks move (new data, or Λ for φ₂)")
+
+    def __init__(self, **params: Any):
+        super().__init__(**params)
+        self.diagram: Diagram | None = None
+        self._key: tuple | None = None
+        self._name = "lam"
+        self._span = (0.5, 4.0)
+        self._stem = "rattle_diagram"
+        self._title = "Bifurcation diagram"
+        self._timer = None
+        self._lam = None
+        self.zoom = Zoom(on_reset=self._redraw)
+        self.range = hv.streams.RangeXY()
+        self.points = hv.DynamicMap(self._points, streams=[hv.streams.Params(self, ["revision"]),
+                                                           self.range])
+        self.range.add_subscriber(self.zoom._ranged, precedence=-1)
+        self.range.add_subscriber(self._on_range)
+        hv.streams.PlotReset(source=self.points).add_subscriber(self.zoom._reset)
+        self.marks = hv.DynamicMap(self._marks, streams=[
+            hv.streams.Params(self.state, ["overlays"]), hv.streams.Params(self, ["marks_revision"])])
+        self.marker = hv.DynamicMap(self._marker, streams=[hv.streams.Params(self.state, ["result"])])
+        self.branch = hv.DynamicMap(self._branch, streams=[
+            hv.streams.Params(self.state, ["branch"]), hv.streams.Params(self, ["marks_revision"])])
+        self.tap = hv.streams.Tap(source=self.points)
+        self.tap.add_subscriber(self._on_tap)
+        s = self.state
+        self.choice = Choice(s, "bif", UNITS_OPTIONS if s.units else OPTIONS, sizing_mode="stretch_width")
+        self.overlays = Choice(s, "overlays", label="overlays: contact boundary Λ_c and 2πn/Λ")
+        self.progress = pn.indicators.Progress(value=0, max=100, visible=False, bar_color="info",
+                                               sizing_mode="stretch_width", height=14,
+                                               css_classes=["bif-progress"])
+        self.status = pn.pane.HTML("", css_classes=["bif-status"], margin=(0, 10),
+                                   sizing_mode="stretch_width")
+        plot = (self.points * self.marks * self.branch * self.marker).opts(
+            hv.opts.Overlay(responsive=True, height=380, hooks=[weak_hook(self._name_plot)]),
+            hv.opts.RGB(tools=[*TOOLS, "tap"], active_tools=["wheel_zoom"]))
+        self.pane = pn.pane.HoloViews(plot, sizing_mode="stretch_width", min_height=380,
+                                      css_classes=["diagram"], linked_axes=False)
+        s.param.watch(self._update, ["result", "bif", "phases"])
+        s.param.watch(self._on_units, "units")
+        if s.units and s.bif == "lam":  # in physical units Λ runs as engine speed
+            s.bif = "rpm"
+        self._update()
+
+    def __panel__(self):
+        return pn.Column(pn.Row(self.choice, self.overlays, sizing_mode="stretch_width"),
+                         message(self.state, "bif"), self.progress, self.status, deferred(self.pane),
+                         sizing_mode="stretch_width")
+
+    # ----- what to show -------------------------------------------------------------------------
+
+    def swept(self) -> str:
+        """The diagram shown: ``state.bif``, but Λ while the physical side is not available."""
+        run = self.state.result
+        return "lam" if self.state.bif == "rpm" and (run is None or run.phys is None) else self.state.bif
+
+    def _update(self, *_: Any) -> None:
+        run = self.state.result
+        if run is None:
+            return
+        name = self.swept()
+        key = diagram_key(name, self.state.phases, run.params, run.phys)
+        value = current_value(name, self.state)
+        lo, hi = self._span
+        if key == self._key and lo <= value <= hi:
+            if name == "phi2" and self._lam != run.params.lam:  # the 2πn/Λ lines move with Λ
+                self._lam = run.params.lam
+                self.marks_revision += 1
+            return
+        self._lam = run.params.lam
+        self._key, self._name = key, name
+        self.diagram = None
+        self.zoom.user = False
+        self._title = f"Bifurcation diagram · {caption(run)}"
+        self._stem = file_stem(run, f"diagram-{name}")
+        req = request(name, self.state, run)
+        self._span = (min(req.axis), max(req.axis))
+        self._start(req, merge=False)
+
+    def _start(self, req: Any, merge: bool) -> None:
+        found = None if merge else shipped(req)
+        if found is not None:
+            self._set(found)
+            return
+        if not merge:  # the old diagram is for other parameters: clear it
+            self.revision += 1
+            self.marks_revision += 1
+        base, name, values = req.sweep_args()
+        key = self._key
+        what = "the zoomed region" if merge else "the diagram"
+        self.status.object = _text(f"Computing {what}: {len(values)} values in the background…")
+        self.progress.param.update(value=0, visible=True)
+        try:
+            self.jobs.submit("diagram", work.diagram, (base, name, values, TRANSIENT, RECORD),
+                             time_limit=60.0,
+                             on_progress=lambda f: self._progress(key, f),
+                             on_done=lambda out: self._done(key, req, out, merge),
+                             on_error=lambda msg: self._error(key, msg))
+        except RuntimeError as exc:
+            self._error(key, str(exc))
+
+    def _progress(self, key: tuple, fraction: float) -> None:
+        if key == self._key:
+            self.progress.value = int(100 * fraction)
+
+    def _done(self, key: tuple, req: Any, out: dict, merge: bool) -> None:
+        if key != self._key:
+            return
+        self.progress.visible = False
+        new = from_work(req, out, "computed (disk cache)")
+        self._set(self.diagram.merge(new) if merge and self.diagram is not None else new)
+
+    def _error(self, key: tuple, msg: str) -> None:
+        if key != self._key:
+            return
+        self.progress.visible = False
+        self.status.object = ""
+        self.state.say("bif", f"The diagram could not be computed: {msg}")
+
+    def _set(self, diagram: Diagram) -> None:
+        self.state.clear("bif")
+        self.status.object = _text(diagram.counts())
+        self.diagram = diagram
+        self.revision += 1
+        self.marks_revision += 1
+
+    # ----- elements -----------------------------------------------------------------------------
+
+    def _axis(self) -> tuple[str, str]:
+        name = self._name
+        x = AXES["phi2-" + self.state.phases] if name == "phi2" else AXES[name]
+        y = "impulse I [N·s, along the line of action]" if name == "rpm" else "impulse Ĩ"
+        return x, y
+
+    def _limits(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        d = self.diagram
+        y = padded(d.impulse) if d is not None and d.impulse.size else (-10.0, 10.0)
+        return self._span, y
+
+    def _points(self, revision: int = 0, x_range: Any = None, y_range: Any = None) -> hv.RGB:
+        xlim, ylim = self._limits()
+        xr, yr = xlim, ylim
+        if self.zoom.user and x_range is not None and y_range is not None and None not in (*x_range, *y_range):
+            xr, yr = tuple(x_range), tuple(y_range)
+        xl, yl = self._axis()
+        kdims = [hv.Dimension("x", label=xl), hv.Dimension("y", label=yl)]
+        d = self.diagram
+        w, h = PIXELS
+        if d is None or not d.x.size:  # nothing to shade (yet): a transparent image
+            rgb = hv.RGB(np.zeros((h, w, 4), dtype=np.uint8), kdims,
+                         bounds=(xr[0], yr[0], xr[1], yr[1]))
+            return self.zoom.apply(rgb, xlim, ylim)
+        side = np.where(d.flank > 0, "active", "reverse")
+        df = pd.DataFrame({"x": d.x, "y": d.impulse, "side": pd.Categorical(side, categories=list(COLORS))})
+        rgb = dynspread(datashade(hv.Points(df, kdims, ["side"]), aggregator=ds.count_cat("side"),
+                                  color_key=COLORS, min_alpha=90, x_range=xr, y_range=yr,
+                                  width=w, height=h, dynamic=False),
+                        max_px=2, threshold=0.5, dynamic=False)
+        return self.zoom.apply(rgb, xlim, ylim)
+
+    def _marker(self, result: Any = None) -> hv.VLine:
+        """The current value of the swept parameter."""
+        value = current_value(self._name, self.state) if result is not None else self._span[0]
+        return self.zoom.apply(hv.VLine(value).opts(color=MARK_COLOR, line_width=2), *self._limits())
+
+    def _marks(self, overlays: bool = True, marks_revision: int = 0) -> hv.Overlay:
+        """Where rattle starts and chaos first appears (labelled), and the 2πn/Λ curves."""
+        result = self.state.result
+        xlim, ylim = self._limits()
+        name = self._name
+        kdims = [hv.Dimension("x"), hv.Dimension("y")]
+        m = marks(name, result, self.diagram) if result is not None else {"onset": None, "chaos": None}
+        top = ylim[1] - 0.04 * (ylim[1] - ylim[0])
+        layers = []
+        for key, color, dash, text in (("onset", ONSET_COLOR, "dashed", "rattle starts (Λ_c)"),
+                                       ("chaos", CHAOS_COLOR, "dotted", "first chaos")):
+            x = m[key]
+            shown = x is not None and (overlays or key == "chaos")
+            xx = x if shown else xlim[0]
+            label = f"{text}: {num(x, 4)}" if shown else ""
+            layers.append(hv.VLine(xx).opts(color=color, line_width=2, line_dash=dash,
+                                            alpha=1.0 if shown else 0.0))
+            layers.append(hv.Text(xx, top if key == "onset" else top - 0.08 * (ylim[1] - ylim[0]),
+                                  f" {label}", halign="left", fontsize=9).opts(color=color))
+        curves = one_sided(name, result, *xlim) if (overlays and result is not None) else []
+        layers.append(hv.Path(curves or [np.empty((0, 2))], kdims).opts(
+            color="#27ae60", line_width=1.5, line_dash="dotted"))
+        return self.zoom.apply(hv.Overlay(layers), xlim, ylim)
+
+    def _branch(self, branch: Any = None, marks_revision: int = 0) -> hv.Overlay:
+        """The continued branch (``state.branch``), drawn by :mod:`app.continuation_view`."""
+        return self.zoom.apply(branch_overlay(branch, self._name), *self._limits())
+
+    def _name_plot(self, plot: Any, element: Any) -> None:
+        """Title (the parameters, so a saved PNG carries them) and the save tool's file name."""
+        plot.state.name = "bifurcation"
+        if plot.state.title.text != self._title:
+            plot.state.title.text = self._title
+            plot.state.title.text_font_size = "9pt"
+        save_as(lambda: self._stem)(plot, element)
+
+    def _redraw(self) -> None:
+        self.revision += 1
+        self.marks_revision += 1
+        self.marker.event()
+
+    # ----- interaction --------------------------------------------------------------------------
+
+    def _on_tap(self, x: float | None = None, y: float | None = None, **_: Any) -> None:
+        if x is not None:
+            later(self.set_swept, float(x))
+
+    def set_swept(self, x: float) -> None:
+        """Set the swept parameter to ``x`` (a click on the diagram)."""
+        name = self._name
+        if name == "rpm":
+            set_value(self.state, "rpm", round(float(x), 1))
+        elif name == "phi2":
+            set_value(self.state, "phi2", round(float(x), 2))
+        else:
+            set_value(self.state, "lam", round(float(x), 4))
+
+    def _on_range(self, x_range: Any = None, y_range: Any = None, **_: Any) -> None:
+        if not self.zoom.user or x_range is None or None in x_range:
+            return
+        doc = pn.state.curdoc
+        if doc is None or doc.session_context is None:
+            self.refine(*x_range)
+            return
+        if self._timer is not None:
+            try:
+                doc.remove_timeout_callback(self._timer)
+            except ValueError:
+                pass
+        lo, hi = x_range
+        self._timer = doc.add_timeout_callback(lambda: self.refine(lo, hi), 600)
+
+    def refine(self, lo: float, hi: float) -> bool:
+        """Recompute the visible part ``[lo, hi]`` of the diagram finer, if zoomed in enough."""
+        self._timer = None
+        d, run = self.diagram, self.state.result
+        if d is None or run is None:
+            return False
+        full_lo, full_hi = d.span
+        lo, hi = max(lo, full_lo), min(hi, full_hi)
+        if hi <= lo or (hi - lo) > 0.6 * (full_hi - full_lo):
+            return False
+        if any(a <= lo and hi <= b for a, b in d.refined):
+            return False
+        if np.count_nonzero((d.swept >= lo) & (d.swept <= hi)) >= 0.8 * ZOOM_VALUES:
+            return False
+        self._start(request(self._name, self.state, run, lo, hi, ZOOM_VALUES), merge=True)
+        return True
+
+    def _on_units(self, event) -> None:
+        s = self.state
+        if event.new and s.bif == "lam":
+            s.bif = "rpm"
+        elif not event.new and s.bif == "rpm":
+            s.bif = "lam"
+        self.choice.widget.options = UNITS_OPTIONS if event.new else OPTIONS
+
+
+def _text(text: str) -> str:
+    import html
+    return f'<div style="font-size:12px;color:#444">{html.escape(text)}</div>'

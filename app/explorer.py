@@ -1,0 +1,196 @@
+"""The Explorer tab's views of the current run: the section, the regime badge and the metrics.
+
+Each is a ``pn.viewable.Viewer`` that draws ``state.result`` (and the view settings it
+needs) and writes only to the state: a click on the section starts the gear there by setting
+``x0``, ``v0``, ``t0``. The plots are HoloViews ``DynamicMap``s whose layers keep their
+structure from one run to the next, so an update replaces glyph data and nothing else. The
+section's dense clouds are rasterised and spread with datashader (HoloViews ``datashade``
+and ``dynspread``) over the range shown, which follows the data until the user zooms
+(:class:`app.plots.Zoom`); a zoom re-rasterises at the new range. The time history is in
+:mod:`app.time_history`.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import holoviews as hv
+import numpy as np
+import panel as pn
+import param
+from holoviews.operation.datashader import datashade, dynspread
+
+from .core import excitation
+from .state import ExplorerState
+from .labels import MARK_COLOR, badge_html, metrics_rows, table_html
+from .plots import TOOLS, Zoom, weak_hook, caption, file_stem, padded, save_as, section_points
+from .widgets import Choice, deferred, later, message
+
+SECTION_OPTIONS = {"Poincaré (x, ẋ)": "absolute", "relative (x−y, ẋ−ẏ)": "relative",
+                   "impact map": "impact"}
+SECTION_PIXELS = (480, 320)
+#: Above this many points the section is rasterised instead of drawn as glyphs.
+DENSE = 5000
+
+
+class SectionView(pn.viewable.Viewer):
+    """Poincaré (absolute or relative) or impact map; a click starts the gear at that point.
+
+    Three layers: the points as glyphs (up to :data:`DENSE` of them), a datashader raster of
+    denser clouds (re-rasterised at the range shown after a zoom), and the start point.
+    Each is a ``DynamicMap`` of its own, redrawn only when its own data change.
+    """
+
+    state = param.ClassSelector(class_=ExplorerState)
+    revision = param.Integer(0)
+    dense_revision = param.Integer(0)
+
+    def __init__(self, **params: Any):
+        super().__init__(**params)
+        self._xy = (np.zeros(0), np.zeros(0))
+        self._dense: tuple[np.ndarray, np.ndarray] | None = None
+        self._kdims = [hv.Dimension("x"), hv.Dimension("y", label="ẋ")]
+        self._lims = ((-1.0, 1.0), (-1.0, 1.0))
+        self._stem, self._title = "rattle_section", "Poincaré map"
+        self.zoom = Zoom(on_reset=self._redraw)
+        self.range = hv.streams.RangeXY()
+        self.sparse = hv.DynamicMap(self._sparse, streams=[hv.streams.Params(self, ["revision"])])
+        self.dense = hv.DynamicMap(self._raster, streams=[hv.streams.Params(self, ["dense_revision"]),
+                                                          self.range])
+        self.start = hv.DynamicMap(self._start, streams=[
+            hv.streams.Params(self.state, ["x0", "v0", "t0"]), hv.streams.Params(self, ["revision"])])
+        self.range.add_subscriber(self.zoom._ranged, precedence=-1)
+        hv.streams.PlotReset(source=self.sparse).add_subscriber(self.zoom._reset)
+        self.tap = hv.streams.Tap(source=self.sparse)
+        self.tap.add_subscriber(self._on_tap)
+        plot = (self.dense * self.sparse * self.start).opts(
+            hv.opts.Overlay(responsive=True, height=380, hooks=[weak_hook(self._name_plot)]),
+            hv.opts.Points(tools=[*TOOLS, "tap"], active_tools=["wheel_zoom"]))
+        self.mode = Choice(self.state, "section", SECTION_OPTIONS, sizing_mode="stretch_width")
+        self.msg = message(self.state, "start")
+        self.pane = pn.pane.HoloViews(plot, sizing_mode="stretch_width", min_height=380,
+                                      css_classes=["section"], linked_axes=False)
+        self.state.param.watch(self._update, ["result", "section"])
+        self._update()
+
+    def __panel__(self):
+        # drawn once the page has loaded, so the first plot (the time history) comes sooner
+        return pn.Column(self.mode, self.msg, deferred(self.pane), sizing_mode="stretch_width")
+
+    def _update(self, *_: Any) -> None:
+        run = self.state.result
+        if run is None:
+            return
+        section = self.state.section
+        x, y, xl, yl = section_points(run.tr, section)
+        self._kdims = [hv.Dimension("x", label=xl), hv.Dimension("y", label=yl)]
+        self._lims = (padded(x), padded(y))
+        theta = f"θ = {self.state.strobe:g}°"
+        title = {"absolute": f"Poincaré map (x, ẋ) at {theta}",
+                 "relative": f"Relative Poincaré map at {theta}",
+                 "impact": "Impact map: impulse against impact phase"}[section]
+        self._title = f"{title} · {caption(run)}"
+        self._stem = file_stem(run, f"section-{section}")
+        dense = len(x) > DENSE
+        if dense or self._dense is not None:
+            self._dense = (x, y) if dense else None
+            self.dense_revision += 1
+        self._xy = (np.zeros(0), np.zeros(0)) if dense else (x, y)
+        self.revision += 1
+
+    def _redraw(self) -> None:
+        self.revision += 1
+        self.dense_revision += 1
+
+    def _sparse(self, revision: int = 0) -> hv.Points:
+        return self.zoom.apply(hv.Points(self._xy, self._kdims).opts(size=4, color="#1f5fa8", alpha=0.8),
+                               *self._lims)
+
+    def _raster(self, dense_revision: int = 0, x_range: Any = None, y_range: Any = None) -> hv.RGB:
+        xr, yr = self._lims
+        if self.zoom.user and x_range is not None and y_range is not None and None not in (*x_range, *y_range):
+            xr, yr = tuple(x_range), tuple(y_range)
+        x, y = self._dense if self._dense is not None else (np.zeros(0), np.zeros(0))
+        w, h = SECTION_PIXELS
+        rgb = dynspread(datashade(hv.Points((x, y), self._kdims), cmap=["#4a90c8", "#08306b"],
+                                  cnorm="eq_hist", min_alpha=140, x_range=xr, y_range=yr,
+                                  width=w, height=h, dynamic=False),
+                        max_px=2, threshold=0.6, dynamic=False)
+        return self.zoom.apply(rgb, *self._lims)
+
+    def _start(self, x0: Any = None, v0: float = 0.0, t0: float = 0.0, revision: int = 0) -> hv.Points:
+        run = self.state.result
+        point = None if run is None else self._start_point(run, self.state.section, x0, v0, t0)
+        marker = hv.Points([point] if point else [], self._kdims).opts(
+            marker="x", size=14, line_width=3, color=MARK_COLOR)
+        return self.zoom.apply(marker, *self._lims)
+
+    def _name_plot(self, plot: Any, element: Any) -> None:
+        """Title (the parameters, so a saved PNG carries them) and the save tool's file name."""
+        plot.state.name = "section"
+        if plot.state.title.text != self._title:
+            plot.state.title.text = self._title
+            plot.state.title.text_font_size = "9pt"
+        save_as(lambda: self._stem)(plot, element)
+
+    @staticmethod
+    def _start_point(run: Any, section: str, x0: Any, v0: float, t0: float):
+        if section == "impact" or x0 is None:
+            return None
+        sx, sv = float(x0), float(v0)
+        if section == "relative":
+            p = run.params
+            sx -= float(excitation(t0, p.h, p.phi))
+            sv -= float(excitation(t0, p.h, p.phi, 1))
+        return (sx, sv)
+
+    def _on_tap(self, x: float | None = None, y: float | None = None, **_: Any) -> None:
+        if x is not None and y is not None:
+            later(start_from_section, self.state, x, y)
+
+
+def start_from_section(state: ExplorerState, x: float, y: float) -> bool:
+    """Start the gear at a clicked section point: (x₀, ẋ₀) at t₀ = the strobe phase."""
+    run = state.result
+    if run is None:
+        return False
+    if state.section == "impact":
+        state.say("start", "Switch to a Poincaré map to start the gear from a clicked point.")
+        return False
+    t0 = math.radians(state.strobe)
+    p = run.params
+    y0 = float(excitation(t0, p.h, p.phi))
+    x0, v0 = float(x), float(y)
+    if state.section == "relative":
+        x0 += y0
+        v0 += float(excitation(t0, p.h, p.phi, 1))
+    if not y0 <= x0 <= y0 + p.j:
+        state.say("start", f"x₀ = {x0:.4g} is outside the backlash [{y0:.4g}, {y0 + p.j:.4g}] "
+                           f"at t₀ = {t0:.4g}: click between the teeth.")
+        return False
+    state.clear("start")
+    state.param.update(x0=round(x0, 10), v0=round(v0, 10), t0=round(t0, 12))
+    return True
+
+
+class RegimeView(pn.viewable.Viewer):
+    """The regime badge and the rattle metrics (in SI units in physical-units mode)."""
+
+    state = param.ClassSelector(class_=ExplorerState)
+
+    def __init__(self, **params: Any):
+        super().__init__(**params)
+        self.badge = pn.pane.HTML("", css_classes=["regime-badge"], sizing_mode="stretch_width")
+        self.metrics = pn.pane.HTML("", css_classes=["rattle-metrics"], min_width=330)
+        self.state.param.watch(self._draw, "result")
+        self._draw()
+
+    def __panel__(self):
+        return pn.Row(self.badge, self.metrics, sizing_mode="stretch_width")
+
+    def _draw(self, *_: Any) -> None:
+        run = self.state.result
+        if run is None:
+            return
+        self.badge.object = badge_html(run.cls)
+        self.metrics.object = table_html(metrics_rows(run.cls, run.tr, run.phys), "rattle-metrics")

@@ -1,0 +1,193 @@
+"""Words, colours and safe HTML for the dashboard: the only module that turns results into text.
+
+* The regime colour table and the flank colours live here and nowhere else in ``app``, so a
+  shared vocabulary module can replace them in one edit.
+* :func:`regime_badge` is the one place that reads the sticking details a ``Classification``
+  may carry (``sticking``, ``loop_amplification``); it works with classifications that have
+  them and with those that do not.
+* Every piece of text that may hold user or URL input reaches the page through
+  :func:`message_html` or :func:`text_html`, which escape it: no user text is ever HTML.
+"""
+from __future__ import annotations
+
+import html
+import math
+from typing import Any
+
+from .core import REGIME_COLOURS, REGIMES
+
+#: Regime letter → colour (maps, badge, legends).
+REGIME_COLOR = dict(REGIME_COLOURS)
+ACTIVE_COLOR = "#c0392b"
+REVERSE_COLOR = "#1f5fa8"
+STICK_COLOR = "#f39c12"
+TOOTH_COLOR = "#9aa5b1"
+GEAR_COLOR = "#222222"
+MARK_COLOR = "#2ca02c"
+ONSET_COLOR = "#8e44ad"
+CHAOS_COLOR = "#d35400"
+#: Flank code → (colour, label), for impacts in every view.
+FLANKS = {1: (ACTIVE_COLOR, "active flank"), -1: (REVERSE_COLOR, "reverse flank")}
+REGIME_MEANING = {**REGIMES, "error": "solver limit"}
+
+_MSG_STYLE = ("background:#f8d7da;color:#842029;border:1px solid #f5c2c7;border-radius:4px;"
+              "padding:6px 10px;margin:2px 0;font-size:13px;white-space:pre-wrap;"
+              "overflow-wrap:anywhere")
+
+
+def short(value: Any, limit: int = 40) -> str:
+    """``repr`` of a value a user typed, cut to ``limit`` characters (still to be escaped)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+def message_html(text: str) -> str:
+    """An error message as HTML: the text escaped, never interpreted."""
+    return f'<div class="rattle-msg" style="{_MSG_STYLE}"><p style="margin:0">{html.escape(text)}</p></div>'
+
+
+def text_html(text: str, style: str = "") -> str:
+    """Plain text as HTML (escaped), in a ``<div>`` with an optional inline style."""
+    return f'<div style="{html.escape(style)}">{html.escape(text)}</div>'
+
+
+def num(v: float | None, digits: int = 4) -> str:
+    """A number for people: ``–`` when missing or not finite."""
+    if v is None or not isinstance(v, (int, float)) or not math.isfinite(v):
+        return "–"
+    return f"{v:.{digits}g}"
+
+
+def percent(fraction: float) -> str:
+    """A fraction of time as a percentage people read (``100 %``, ``12.5 %``, ``< 0.1 %``)."""
+    if not math.isfinite(fraction):
+        return "–"
+    p = 100.0 * fraction
+    if p == 0.0:
+        return "0 %"
+    if p < 0.1:
+        return "< 0.1 %"
+    return f"{p:.0f} %" if p >= 10 else f"{p:.1f} %"
+
+
+def lyapunov_text(lyap: float | None) -> str:
+    if lyap is None or (isinstance(lyap, float) and math.isnan(lyap)):
+        return "n/a"
+    if math.isinf(lyap):
+        return "−∞ (sticking)" if lyap < 0 else "+∞"
+    return f"{lyap:+.4f}"
+
+
+def sticking_text(cls: Any) -> str:
+    """How the gear sticks, if it does: the only reader of ``sticking``/``loop_amplification``."""
+    kind = getattr(cls, "sticking", "") or ""
+    amp = getattr(cls, "loop_amplification", math.nan)
+    amp_text = f", loop amplification 10^{amp:.1f}" if isinstance(amp, float) and math.isfinite(amp) else ""
+    if kind == "chaos-through-sticking":
+        if getattr(cls, "noisy", True):
+            return "chaos through sticking, vanishing-noise statistics"
+        return "loop chosen by rounding: not resolvable (noise off)"
+    if kind == "stick-locked" and cls.regime != "A":  # A never leaves the wall: nothing to lock
+        period = f", period {cls.period}" if cls.period else ""
+        return f"stick-locked, exact{period}" + amp_text
+    if cls.stick_fraction > 0:
+        return f"sticking {percent(cls.stick_fraction)} of the time"
+    return ""
+
+
+def regime_badge(cls: Any) -> dict[str, str]:
+    """The badge's parts: ``letter``, ``color``, ``headline`` and ``detail`` (plain text)."""
+    period = f"period {cls.period}" if cls.period else "no period ≤ 32"
+    chaos = "chaotic" if cls.chaotic else "not chaotic"
+    headline = f"{period} · {chaos} · Lyapunov λ = {lyapunov_text(cls.lyapunov)}"
+    parts = [f"{cls.regime}: {REGIME_MEANING.get(cls.regime, '')}"]
+    stick = sticking_text(cls)
+    if stick:
+        parts.append(stick)
+    parts.append(f"{num(cls.active_per_period, 3)} active + {num(cls.reverse_per_period, 3)} "
+                 "reverse impacts per period")
+    return {"letter": cls.regime, "color": REGIME_COLOR.get(cls.regime, "#555555"),
+            "headline": headline, "detail": " · ".join(parts)}
+
+
+def badge_html(cls: Any) -> str:
+    """The regime badge as HTML (every part escaped)."""
+    b = {k: html.escape(v) for k, v in regime_badge(cls).items()}
+    sticking = html.escape(getattr(cls, "sticking", "") or "")
+    return (f'<div class="rattle-badge" data-regime="{b["letter"]}" data-sticking="{sticking}" '
+            f'style="display:flex;gap:12px;'
+            f'align-items:center"><span style="background:{b["color"]};color:white;font-size:28px;'
+            f'font-weight:bold;border-radius:8px;padding:4px 14px">{b["letter"]}</span>'
+            f'<span><b>{b["headline"]}</b><br><span class="badge-detail" style="color:#555">'
+            f'{b["detail"]}</span></span></div>')
+
+
+def table_html(rows: list[tuple[str, ...]], css: str, head: tuple[str, ...] | None = None) -> str:
+    """Rows of plain text as an HTML table (every cell escaped; the last columns bold)."""
+    e = html.escape
+    out = [f'<table class="{e(css)}" style="font-size:13px;border-collapse:collapse">']
+    if head:
+        out.append("<tr>" + "".join(f"<th style='text-align:left;padding-right:12px'>{e(h)}</th>"
+                                    for h in head) + "</tr>")
+    for row in rows:
+        cells = [f"<td style='padding-right:12px'>{e(row[0])}</td>"]
+        cells += [f"<td style='padding-right:12px'><b>{e(c)}</b></td>" for c in row[1:]]
+        out.append("<tr>" + "".join(cells) + "</tr>")
+    out.append("</table>")
+    return "".join(out)
+
+
+def metrics_rows(cls: Any, tr: Any, phys: Any = None) -> list[tuple[str, str]]:
+    """Rattle metrics of the recorded window: dimensionless, or in SI units with ``phys``."""
+    if phys is None:
+        rows = [
+            ("impacts / period (active, reverse)",
+             f"{num(cls.active_per_period)}, {num(cls.reverse_per_period)}"),
+            ("mean |Ĩ| (active, reverse)",
+             f"{num(cls.mean_impulse_active)}, {num(cls.mean_impulse_reverse)}"),
+            ("RMS Ĩ (active, reverse)", f"{num(cls.rms_impulse_active)}, {num(cls.rms_impulse_reverse)}"),
+            ("rattle intensity Σ Ĩ² / period", num(cls.intensity)),
+        ]
+    else:
+        f, s = phys.frequency_hz, phys.impulse_scale
+
+        def sc(v: float, k: float) -> float:
+            return v * k if v is not None and math.isfinite(v) else math.nan
+        rows = [
+            ("impact rate (active, reverse)",
+             f"{num(sc(cls.active_per_period, f))}, {num(sc(cls.reverse_per_period, f))} 1/s"),
+            ("mean |I| (active, reverse)",
+             f"{num(sc(cls.mean_impulse_active, s))}, {num(sc(cls.mean_impulse_reverse, s))} N·s"),
+            ("RMS I (active, reverse)",
+             f"{num(sc(cls.rms_impulse_active, s))}, {num(sc(cls.rms_impulse_reverse, s))} N·s"),
+            ("rattle intensity Σ I² per second",
+             f"{num(sc(sc(cls.intensity, s * s), f))} N²·s"),
+        ]
+    seconds = f" ({num(1e3 * tr.periods * phys.period_s)} ms)" if phys is not None else ""
+    rows += [("time in permanent contact", percent(cls.stick_fraction)),
+             ("impacts recorded", f"{len(tr.impact_t)} in {tr.periods:.0f} periods{seconds}")]
+    return rows
+
+
+def what_to_hear(classification, impacts: int, seconds: float, freq_hz: float) -> str:
+    """One line: impacts per second and the regime, as the ear meets them."""
+    if classification is None:
+        return ""
+    c = classification
+    if impacts == 0:
+        if c.regime in ("A", "B") or c.stick_fraction > 0:
+            return ("**Silence**: the gear rides the driving tooth (permanent contact), "
+                    "so nothing strikes the housing.")
+        return "**Silence**: no impact in the periods played."
+    rate = c.impacts_per_period * freq_hz
+    if c.regime == "B":
+        return (f"**Chatter, then silence**: {impacts} impacts in {seconds:.2f} s, then the gear "
+                f"sticks to the tooth ({percent(c.stick_fraction)} of the time) and the housing "
+                "rings out.")
+    if c.regime == "D":
+        stick = " with silent stick phases" if c.stick_fraction > 0 else ""
+        return f"**Chaotic rattle**{stick}: irregular impacts, about {rate:.4g} per second."
+    if c.regime == "Q":
+        return f"**Irregular rattle** (non-repeating): about {rate:.4g} impacts per second."
+    return (f"**Periodic buzz**: {rate:.4g} impacts per second, repeating every {c.period} "
+            f"period{'s' if c.period > 1 else ''} ({freq_hz / max(c.period, 1):.4g} Hz).")

@@ -1,0 +1,402 @@
+"""The Maps tab: regime and intensity maps over two parameters, and basins of attraction.
+
+A ``pn.viewable.Viewer`` over the state with its own request settings (:class:`MapSettings`:
+axes, ranges, points, periods, the field shown), whose bounds validate them. Compute runs
+:func:`rattle_core.maps.run_map` as this session's ``map`` job (:mod:`app.jobs`): in a worker
+process, bounded in time, cancelled by Cancel, by a new request and when the session ends,
+from the disk cache when the same map ran before. Maps run on the server's cores, or on the
+Dask scheduler given on the server's command line (``rattle serve --scheduler``,
+:func:`set_scheduler`); no page can choose where the server connects.
+
+The map is a HoloViews ``Image`` whose colours follow the field shown: the regime colours for
+regimes, a log colour bar for the rattle intensity, a linear one for the other quantities.
+A click (``Tap`` stream) sets the state to the clicked grid point (on physical axes, the
+engine speed and drag torque themselves, so Λ and j follow exactly); on a basin map it starts
+the gear there at t = 0. In physical units the default axes are engine speed and drag torque.
+"""
+from __future__ import annotations
+
+import io
+import math
+from typing import Any
+
+import holoviews as hv
+import numpy as np
+import panel as pn
+import param
+
+from . import work
+from .core import REGIME_CODES, excitation, paper_phi2_to_core, plan_map
+from .state import ExplorerState, Said
+from .labels import REGIME_COLOR, REGIME_MEANING, text_html
+from .plots import TOOLS, file_stem
+from .widgets import Choice, Field, later, message
+
+AXES = {"lam": "Λ", "r": "r", "j": "j", "h2": "H₂/H₁", "phi2": "φ₂ [°]",
+        "rpm": "engine speed [rpm]", "drag_torque": "drag torque C [N·m]"}
+PHYSICAL = ("rpm", "drag_torque")
+RANGES = {"lam": (0.5, 4.0), "r": (0.3, 0.95), "j": (2.0, 16.0), "h2": (0.0, 1.0),
+          "phi2": (0.0, 360.0), "rpm": (800.0, 6000.0), "v0": (-3.0, 3.0)}
+FIELDS = {"regime": "regime", "intensity": "rattle intensity Σ Ĩ² per period",
+          "period": "period (forcing periods)", "lyapunov": "Lyapunov exponent",
+          "stick_fraction": "stick fraction"}
+MAX_POINTS = 100_000
+MAX_WORK = 2e7  # points × (transient + record): about a minute on two cores
+_scheduler = ""
+
+
+def set_scheduler(address: str | None) -> None:
+    """Where every session's maps run: ``""`` (the server's cores) or a Dask scheduler address."""
+    global _scheduler
+    _scheduler = address or ""
+
+
+def scheduler() -> str:
+    return _scheduler
+
+
+class MapSettings(Said):
+    """What map to compute, with the allowed ranges."""
+
+    kind = param.Selector(default="regime", objects=["regime", "basin"])
+    x_axis = param.Selector(default="lam", objects=[*AXES, "x0", "v0"], label="x axis")
+    y_axis = param.Selector(default="phi2", objects=[*AXES, "x0", "v0"], label="y axis")
+    x_start = param.Number(0.5, label="x from")
+    x_stop = param.Number(4.0, label="x to")
+    x_num = param.Integer(60, bounds=(2, 400), label="x points")
+    y_start = param.Number(0.0, label="y from")
+    y_stop = param.Number(360.0, label="y to")
+    y_num = param.Integer(60, bounds=(2, 400), label="y points")
+    transient = param.Integer(200, bounds=(0, 100_000), label="transient periods")
+    record = param.Integer(60, bounds=(1, 10_000), label="recorded periods")
+    field = param.Selector(default="regime", objects=[*FIELDS, "attractor"], label="shown")
+
+
+class MapsView(pn.viewable.Viewer):
+    """The Maps tab of one session."""
+
+    state = param.ClassSelector(class_=ExplorerState)
+    jobs = param.Parameter()
+    revision = param.Integer(0)
+
+    def __init__(self, **params: Any):
+        super().__init__(**params)
+        self.settings = m = MapSettings()
+        self.result: Any = None
+        self._request: dict | None = None
+        m.param.watch(self._on_axis, ["x_axis", "y_axis"])
+        m.param.watch(self._on_kind, "kind")
+        self.state.param.watch(self._on_units, "units")
+        self.state.param.watch(self._on_result, "result")
+        self.compute_button = pn.widgets.Button(label="Compute", color="primary",
+                                                css_classes=["map-compute"], sizing_mode="stretch_width")
+        self.cancel_button = pn.widgets.Button(label="Cancel", disabled=True, css_classes=["map-cancel"],
+                                               sizing_mode="stretch_width")
+        self.compute_button.on_click(lambda e: self.compute())
+        self.cancel_button.on_click(lambda e: self.cancel("Cancelled."))
+        self.progress = pn.indicators.Progress(value=0, max=100, visible=False, bar_color="info",
+                                               height=14, sizing_mode="stretch_width", css_classes=["map-progress"])
+        self.status = pn.pane.HTML(text_html("No map yet: choose the axes and press Compute."),
+                                   css_classes=["map-status"], sizing_mode="stretch_width")
+        self.legend = pn.pane.HTML("", css_classes=["map-legend"], sizing_mode="stretch_width")
+        self.download = pn.widgets.FileDownload(callback=self._csv, filename="map.csv", label="Map as CSV",
+                                                color="success", disabled=True,
+                                                css_classes=["map-download"], sizing_mode="stretch_width")
+        self.image = hv.DynamicMap(self._image, streams=[hv.streams.Params(self, ["revision"]),
+                                                         hv.streams.Params(m, ["field"])])
+        self.marker = hv.DynamicMap(self._marker, streams=[hv.streams.Params(self.state, ["result"]),
+                                                           hv.streams.Params(self, ["revision"])])
+        self.tap = hv.streams.Tap(source=self.image)
+        self.tap.add_subscriber(lambda x=None, y=None, **_: later(self.select_point, x, y))
+        self.pane = pn.pane.HoloViews((self.image * self.marker).opts(
+            hv.opts.Overlay(width=640, height=520, framewise=True, hooks=[_name_plot])),
+            css_classes=["map-plot"])
+        self._choices = {n: Choice(m, n, {_axis_label(a): a for a in self._axes()}, select=True,
+                                   sizing_mode="stretch_width") for n in ("x_axis", "y_axis")}
+        self._field = Choice(m, "field", {v: k for k, v in FIELDS.items()}, select=True, width=300)
+        if self.state.units:  # in physical units a map runs against engine speed and drag torque
+            self._set_axes("rpm", "drag_torque")
+
+    def __panel__(self):
+        m = self.settings
+
+        def axis(a: str) -> pn.Column:
+            return pn.Column(self._choices[f"{a}_axis"],
+                             pn.Row(Field(m, f"{a}_start", label="from", slider=False, css=f"map-{a}-start"),
+                                    Field(m, f"{a}_stop", label="to", slider=False, css=f"map-{a}-stop"),
+                                    Field(m, f"{a}_num", label="points", slider=False, css=f"map-{a}-num"),
+                                    sizing_mode="stretch_width"),
+                             message(self.state, f"map-{a}"), sizing_mode="stretch_width", margin=0)
+        where = (f"Maps run on the Dask scheduler {_scheduler} (set when the server started)."
+                 if _scheduler else "Maps run on this server's cores.")
+        controls = pn.Column(
+            Choice(m, "kind", {"Regimes over two parameters": "regime", "Basins over (x₀, ẋ₀)": "basin"},
+                   sizing_mode="stretch_width"),
+            axis("x"), axis("y"),
+            pn.Row(Field(m, "transient", slider=False, css="map-transient"),
+                   Field(m, "record", slider=False, css="map-record"),
+                   sizing_mode="stretch_width"),
+            pn.Row(self.compute_button, self.cancel_button, sizing_mode="stretch_width"),
+            message(self.state, "map-run"), self.progress, self.status,
+            pn.pane.HTML(text_html(where, "font-size:12px;color:#555"), css_classes=["map-where"]),
+            self.download, self.legend, width=440, margin=(0, 10))
+        return pn.Row(controls, pn.Column(self._field, self.pane), sizing_mode="stretch_width")
+
+    # ----- axes -------------------------------------------------------------------------------
+
+    def _axes(self) -> list[str]:
+        if self.settings.kind == "basin":
+            return ["x0", "v0"]
+        return [a for a in AXES if self.state.units or a not in PHYSICAL]
+
+    def _range(self, name: str) -> tuple[float, float]:
+        s = self.state
+        if name == "phi2" and s.phases == "core":
+            return (-180.0, 180.0)
+        if name == "drag_torque":
+            return (float(f"{s.drag_torque / 4:.3g}"), float(f"{s.drag_torque * 4:.3g}"))
+        if name == "x0" and s.result is not None:
+            p = s.result.params
+            y0 = float(excitation(0.0, p.h, p.phi))
+            return (round(y0, 10), round(y0 + p.j, 10))
+        return RANGES.get(name, (0.0, 1.0))
+
+    def _on_axis(self, *events) -> None:
+        for event in events:
+            a = event.name[0]
+            lo, hi = self._range(event.new)
+            self.settings.param.update({f"{a}_start": lo, f"{a}_stop": hi})
+            self.state.clear(f"map-{a}")
+
+    def _set_axes(self, x: str, y: str) -> None:
+        for n, v in (("x_axis", x), ("y_axis", y)):
+            self._choices[n].widget.options = {_axis_label(a): a for a in self._axes()}
+        self.settings.param.update(x_axis=x, y_axis=y)
+
+    def _on_kind(self, event) -> None:
+        basin = event.new == "basin"
+        self._set_axes(*(("x0", "v0") if basin else ("lam", "phi2")))
+        self._field.widget.options = {v: k for k, v in FIELDS.items()} if not basin else {
+            "attractor reached": "attractor", **{v: k for k, v in FIELDS.items()}}
+        self.settings.field = "attractor" if basin else "regime"
+
+    def _on_units(self, event) -> None:
+        if self.settings.kind == "regime":
+            self._set_axes(*(("rpm", "drag_torque") if event.new else ("lam", "phi2")))
+
+    # ----- requests -----------------------------------------------------------------------------
+
+    def request(self) -> dict | None:
+        """The map the settings ask for, checked; None (with messages shown) if it cannot run."""
+        m, s = self.settings, self.state
+        s.clear("map-x", "map-y", "map-run")
+        axes = {}
+        for a in ("x", "y"):
+            lo, hi, n = getattr(m, f"{a}_start"), getattr(m, f"{a}_stop"), getattr(m, f"{a}_num")
+            if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+                s.say(f"map-{a}", f"{a} axis: 'from' ({lo:g}) must be below 'to' ({hi:g}).")
+                return None
+            # grid values people read (and a click puts in the URL): 12 significant digits
+            axes[a] = np.array([float(f"{v:.12g}") for v in np.linspace(lo, hi, n)])
+        xv, yv = axes["x"], axes["y"]
+        points, work_ = xv.size * yv.size, xv.size * yv.size * (m.transient + m.record)
+        if points > MAX_POINTS:
+            s.say("map-run", f"the grid has {xv.size} × {yv.size} = {points} points; the allowed "
+                             f"range is up to {MAX_POINTS:,} points.")
+            return None
+        if work_ > MAX_WORK:
+            s.say("map-run", f"points × (transient + recorded periods) = {work_:.3g}; the allowed "
+                             f"range is up to {MAX_WORK:.0e} (fewer points or periods).")
+            return None
+        run = s.result
+        core = {a: (paper_phi2_to_core(v) if name == "phi2" and s.phases == "paper" else v)
+                for a, name, v in (("x", m.x_axis, xv), ("y", m.y_axis, yv))}
+        try:
+            plan = plan_map(run.params, run.phys, m.x_axis, core["x"], m.y_axis, core["y"])
+        except ValueError as exc:
+            text = str(exc)
+            s.say("map-y" if text.startswith("y axis") else "map-x" if text.startswith("x axis")
+                  else "map-run", text)
+            return None
+        return {"params": run.params, "phys": run.phys, "x_name": m.x_axis, "y_name": m.y_axis,
+                "x_values": xv, "y_values": yv, "core": core, "plan": plan,
+                "transient": m.transient, "record": m.record, "key": _key(run.params, plan)}
+
+    def compute(self) -> bool:
+        """Start the map the settings ask for (it replaces the one running)."""
+        req = self.request()
+        if req is None:
+            return False
+        self._request = req
+        self.progress.param.update(value=0, visible=True)
+        self.cancel_button.disabled = False
+        n = req["x_values"].size * req["y_values"].size
+        where = f"on Dask ({_scheduler})" if _scheduler else "on this server's cores"
+        self.status.object = text_html(f"Computing {req['x_values'].size} × {req['y_values'].size} "
+                                       f"= {n} points {where}…")
+        args = (req["params"], req["phys"], req["x_name"], req["core"]["x"], req["y_name"],
+                req["core"]["y"], req["transient"], req["record"], _scheduler)
+        self._job = self.jobs.submit("map", work.regime_map, args, time_limit=300.0,
+                                     on_progress=lambda f: self._progress(req, f),
+                                     on_done=lambda r: self._done(req, r),
+                                     on_error=lambda msg: self._error(req, msg))
+        return True
+
+    def cancel(self, text: str | None = None) -> None:
+        if getattr(self, "_job", None) is not None:
+            self._job.cancel()
+            self._job = None
+        self._request = None
+        self.progress.visible = False
+        self.cancel_button.disabled = True
+        if text:
+            self.status.object = text_html(text)
+
+    def _progress(self, req: dict, fraction: float) -> None:
+        if req is self._request:
+            self.progress.value = int(100 * fraction)
+
+    def _error(self, req: dict, msg: str) -> None:
+        if req is self._request:
+            self.cancel(None)
+            self.status.object = text_html("No new map: see the message above.")
+            self.state.say("map-run", f"The map could not be computed: {msg}")
+
+    def _done(self, req: dict, result: Any) -> None:
+        if req is not self._request:
+            return
+        self._job = None
+        self.progress.visible = False
+        self.cancel_button.disabled = True
+        result.x_values, result.y_values = req["x_values"], req["y_values"]
+        self.result, self._shown = result, req
+        self.download.param.update(disabled=False, filename=file_stem(self.state.result, f"map-{req['x_name']}-{req['y_name']}") + ".csv")
+        self.revision += 1
+        self._on_result()
+
+    # ----- drawing ------------------------------------------------------------------------------
+
+    def _image(self, revision: int = 0, field: str = "regime") -> hv.Image:
+        r = self.result
+        if r is None:
+            return hv.Image(np.full((2, 2), np.nan), bounds=(0, 0, 1, 1)).opts(colorbar=False)
+        if field not in r.fields:
+            field = "attractor" if r.kind == "basin" else "regime"
+        z = np.asarray(r.fields[field], dtype=np.float64).copy()
+        if field in ("regime", "attractor"):
+            z[z < 0] = np.nan
+        if field == "intensity":
+            z[~(z > 0)] = np.nan  # no impacts: blank, as the log colour scale needs
+        f = r.fields
+        vd = [hv.Dimension(field, label=FIELDS.get(field, "attractor")), "regime_code", "period",
+              "intensity_", "lyapunov_"]
+        img = hv.Image((r.x_values, r.y_values, z, np.asarray(f["regime"], dtype=np.float64),
+                        f["period"], f["intensity"], f["lyapunov"]),
+                       [hv.Dimension("x", label=AXES.get(r.x_name, r.x_name)),
+                        hv.Dimension("y", label=AXES.get(r.y_name, r.y_name))], vd)
+        opts = {"clipping_colors": {"NaN": (0, 0, 0, 0)}, "tools": [*TOOLS, "tap", "hover"],
+                "title": f"{FIELDS.get(field, 'attractor reached')} · {'basins' if r.kind == 'basin' else 'regime map'}"}
+        if field == "regime":
+            opts.update(cmap=[REGIME_COLOR[k] for k in REGIME_CODES], clim=(-0.5, len(REGIME_CODES) - 0.5),
+                        colorbar=False, logz=False)
+        elif field == "attractor":
+            from bokeh.palettes import Category20
+            opts.update(cmap=list(Category20[20]), clim=(-0.5, 19.5), colorbar=False, logz=False)
+        else:
+            finite = z[np.isfinite(z)]
+            lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
+            if field == "intensity":
+                opts.update(cmap="magma", logz=True, clim=(max(lo, 1e-4 * hi), max(hi, lo * (1 + 1e-9))))
+            else:
+                opts.update(cmap="viridis", logz=False, clim=(lo, hi if hi > lo else lo + 1.0))
+            opts["colorbar"] = True
+        return img.opts(**opts)
+
+    def _marker(self, result: Any = None, revision: int = 0) -> hv.Points:
+        r, s = self.result, self.state
+        point = None
+        if r is not None and result is not None:
+            if r.kind == "basin":
+                if s.x0 is not None and s.t0 == 0.0:
+                    point = (s.x0, s.v0) if r.x_name == "x0" else (s.v0, s.x0)
+            else:
+                point = (getattr(s, r.x_name), getattr(s, r.y_name))
+        return hv.Points([point] if point else []).opts(marker="circle_cross", size=14, fill_color=None,
+                                                        line_color="white", line_width=2)
+
+    def _on_result(self, *_: Any) -> None:
+        r, req, run = self.result, getattr(self, "_shown", None), self.state.result
+        if r is None or req is None or run is None:
+            self.legend.object = ""
+            return
+        n = r.x_values.size * r.y_values.size
+        how = "read from the disk cache" if r.from_cache else "computed"
+        text = f"{'Basins' if r.kind == 'basin' else 'Map'} of {r.x_values.size} × {r.y_values.size} = {n} points, {how}."
+        try:
+            stale = _key(run.params, req["plan"]) != req["key"]
+        except ValueError:
+            stale = True
+        if stale:
+            text += " For other parameters than the current ones: press Compute to update."
+        self.status.object = text_html(text)
+        self.legend.object = _legend(r)
+
+    # ----- clicks -------------------------------------------------------------------------------
+
+    def select_point(self, x: float | None, y: float | None) -> None:
+        """A click on the map: the state moves to that grid point (basins: the gear starts there)."""
+        r, s = self.result, self.state
+        if r is None or x is None or y is None:
+            return
+        xv = float(r.x_values[int(np.argmin(np.abs(r.x_values - x)))])
+        yv = float(r.y_values[int(np.argmin(np.abs(r.y_values - y)))])
+        point = {r.x_name: xv, r.y_name: yv}
+        if r.kind == "basin":
+            values = {"x0": point["x0"], "v0": point["v0"], "t0": 0.0}
+        elif set(point) & set(PHYSICAL) and not s.units:
+            s.say("map-run", "This map has physical axes: turn the physical units on to move there.")
+            return
+        else:
+            values = point
+        try:
+            s.param.update(**values)
+            s.clear("map-run")
+        except ValueError as exc:
+            s.say("map-run", f"{exc}")
+
+    def _csv(self) -> io.StringIO:
+        return io.StringIO("" if self.result is None else self.result.table().to_csv(index=False))
+
+
+def _name_plot(plot: Any, element: Any) -> None:
+    plot.state.name = "map_figure"
+
+
+def _axis_label(name: str) -> str:
+    return {"x0": "x₀ at t = 0", "v0": "ẋ₀ at t = 0"}.get(name, AXES.get(name, name))
+
+
+def _key(params: Any, plan: tuple) -> str:
+    """What a map depends on besides its axes; a map is stale when this changes."""
+    if plan[0] == "map":
+        params = params.with_value(plan[1], 1.0).with_value(plan[3], 1.0)
+    elif plan[0] == "flat":
+        params = params.with_value(plan[1], 1.0)
+    return repr(params.canonical())
+
+
+def _legend(r: Any) -> str:
+    """The regimes (or attractors) of a map with their colours and counts (no user text)."""
+    def swatch(colour: str) -> str:
+        return (f"<span style='display:inline-block;width:14px;height:14px;background:{colour};"
+                "border:1px solid #555;margin-right:6px;vertical-align:middle'></span>")
+    if r.kind == "basin":
+        from bokeh.palettes import Category20
+        rows = [f"<div class='map-attractor' data-regime='{a['regime']}'>{swatch(Category20[20][i % 20])}"
+                f"<b>{i}</b>: regime {a['regime']}{', period ' + str(a['period']) if a['period'] else ''}, "
+                f"{100 * a['share']:.1f} %</div>" for i, a in enumerate(r.attractors[:40])]
+        return "<div><b>Attractors</b> (regime, period, share of the grid)</div>" + "".join(rows)
+    reg = np.asarray(r.fields["regime"])
+    rows = [f"<div class='map-regime' data-regime='{k}'>{swatch(REGIME_COLOR[k])}<b>{k}</b> "
+            f"{REGIME_MEANING[k]} ({int((reg == c).sum())})</div>" for k, c in REGIME_CODES.items()]
+    return "<div><b>Regimes</b> (points)</div>" + "".join(rows)

@@ -1,0 +1,233 @@
+"""Plot data and plot helpers: a trajectory in, arrays and names out; no session, no widget.
+
+* :func:`time_history_data` and :func:`section_points` turn a trajectory into arrays (in
+  physical units when asked);
+* :func:`caption` and :func:`file_stem` name a run's parameters, for plot titles (which are
+  part of every saved PNG) and for the save tool's file name (:func:`save_as`);
+* :class:`Zoom` keeps a plot on its data until the user zooms or pans, then keeps the
+  user's view across redraws until the reset tool is pressed (HoloViews ``RangeXY`` and
+  ``PlotReset`` streams; Bokeh reports only the user's range changes as ``rangesupdate``).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import weakref
+from typing import Any, Callable
+
+import holoviews as hv
+import numpy as np
+
+from .core import TWO_PI
+from .state import display_phases
+from .labels import num
+
+#: Samples per forcing period of the time history (impact instants are added exactly).
+POINTS_PER_PERIOD = 160
+TOOLS = ["save", "pan", "wheel_zoom", "box_zoom", "reset"]
+
+
+# ----- names of a run -----------------------------------------------------------------------
+
+def caption(run: Any) -> str:
+    """The run's parameters in one line, in the page's phase convention (and SI when on)."""
+    p = run.params
+    phases = display_phases(p, run.phases)
+    parts = [f"Λ = {num(p.lam, 6)}", f"r = {num(p.r, 4)}", f"j = {num(p.j, 5)}"]
+    for k in range(2, p.n_harmonics + 1):
+        if p.amplitudes[k - 1] != 0.0 or k == 2:
+            parts.append(f"h{k} = {num(p.amplitudes[k - 1], 4)}, φ{k} = {num(phases[k - 1], 5)}°")
+    parts[-1] += f" ({run.phases})"
+    if run.phys is not None:
+        ph = run.phys
+        parts.append(f"{num(ph.rpm, 6)} rpm, C = {num(ph.drag_torque, 4)} N·m")
+    return " · ".join(parts)
+
+
+def file_stem(run: Any, what: str) -> str:
+    """A file name (no extension) holding the run's parameters, safe on every file system."""
+    p = run.params
+    phi2 = display_phases(p, run.phases)[1] if p.n_harmonics > 1 else 0.0
+    h2 = p.amplitudes[1] if p.n_harmonics > 1 else 0.0
+    stem = f"rattle_{what}_lam{p.lam:.6g}_r{p.r:.4g}_j{p.j:.5g}_h2-{h2:.4g}_phi2-{phi2:.5g}{run.phases}"
+    if p.n_harmonics > 2:
+        stem += f"_{p.n_harmonics}harm"
+    if run.phys is not None:
+        stem += f"_{run.phys.rpm:.6g}rpm"
+    return "".join(c if c.isalnum() or c in "._-" else "_" for c in stem)
+
+
+def save_as(get_stem: Callable[[], str]) -> Callable:
+    """A HoloViews hook giving the plot's save tool the file name ``get_stem()``."""
+    def hook(plot, element) -> None:
+        from bokeh.models import SaveTool
+        stem = get_stem()
+        for tool in plot.state.toolbar.tools:
+            if isinstance(tool, SaveTool) and tool.filename != stem:
+                tool.filename = stem
+    return hook
+
+
+def weak_hook(method: Callable) -> Callable:
+    """A HoloViews hook calling a view's ``method`` without keeping the view alive.
+
+    HoloViews keeps the options of every customised element in a process-wide store; a hook
+    that held its view would keep a closed session's views, state and results for ever.
+    """
+    ref = weakref.WeakMethod(method)
+
+    def hook(plot, element) -> None:
+        bound = ref()
+        if bound is not None:
+            bound(plot, element)
+    return hook
+
+
+def padded(v: np.ndarray, pad: float = 0.05) -> tuple[float, float]:
+    """Finite ``(lo, hi)`` around ``v`` with a margin; a unit range around a single value."""
+    v = np.asarray(v, dtype=float)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return -1.0, 1.0
+    lo, hi = float(v.min()), float(v.max())
+    span = hi - lo
+    # a periodic orbit repeats to ~1e-11: treat spans at that level as one point, not a zoom
+    if span <= 1e-8 * max(1.0, abs(lo), abs(hi)):
+        half = max(0.5, 0.05 * abs(lo))
+        return lo - half, hi + half
+    return lo - pad * span, hi + pad * span
+
+
+class Zoom:
+    """Follow the data until the user zooms; then keep the user's view (see the module docstring)."""
+
+    def __init__(self, on_reset: Callable[[], None] | None = None):
+        self.user = False
+        self.shown: tuple[float, ...] | None = None
+        self._on_reset = on_reset
+
+    def watch(self, dmap: Any) -> None:
+        """Listen to the user's zooms and resets of the plot ``dmap`` is drawn in."""
+        hv.streams.RangeXY(source=dmap).add_subscriber(self._ranged)
+        hv.streams.PlotReset(source=dmap).add_subscriber(self._reset)
+
+    def apply(self, element: Any, xlim: tuple[float, float], ylim: tuple[float, float]) -> Any:
+        """``element`` with the data's limits, or left to the user's view."""
+        if self.user:
+            return element.opts(framewise=False)
+        self.shown = (*xlim, *ylim)
+        return element.opts(xlim=tuple(xlim), ylim=tuple(ylim), framewise=True)
+
+    def _ranged(self, x_range=None, y_range=None, **_: Any) -> None:
+        if x_range is None or y_range is None or None in (*x_range, *y_range):
+            return
+        got = (*x_range, *y_range)
+        if self.shown is not None:
+            span = max(abs(self.shown[1] - self.shown[0]), abs(self.shown[3] - self.shown[2]), 1e-300)
+            if all(abs(a - b) <= 1e-6 * span for a, b in zip(got, self.shown)):
+                return  # the browser reporting the data's own range (a reset, or a redraw)
+        self.user = True
+
+    def _reset(self, resetting: bool = False, **_: Any) -> None:
+        if resetting and self.user:
+            self.user = False
+            if self._on_reset is not None:
+                from .widgets import later
+                later(self._on_reset)
+
+
+# ----- time history ----------------------------------------------------------------------------
+
+def tooth_depth(j: float) -> float:
+    """Drawn thickness of each tooth: visible at any backlash, never dominating the gap."""
+    return max(0.6, 0.25 * float(j))
+
+
+def time_history_data(tr: Any, shown: int, phys: Any = None, angle: bool = False,
+                      points_per_period: int = POINTS_PER_PERIOD) -> dict[str, Any]:
+    """Arrays of the time history over the first ``shown`` recorded periods.
+
+    Dimensionless (``t``, position/H₁) by default; with ``phys`` (a ``PhysicalParams``) time
+    in ms from the window's start and positions in µm along the line of action, or (``angle``)
+    in degrees of the idle gear. The sample grid includes every impact time, so the kinks of
+    ``x(t)`` are drawn where they happen. Returns ``motion`` (t, x, y, yj, tooth_lo,
+    tooth_hi), ``impacts`` (t, x, impulse, flank), ``stick`` (list of (t, x) arrays) and
+    axis ``labels``.
+    """
+    t_lo = tr.t_start
+    t_hi = min(tr.t_end, tr.t_start + TWO_PI * max(1, int(shown)))
+    n = max(2, int(math.ceil((t_hi - t_lo) / TWO_PI * points_per_period)) + 1)
+    in_win = (tr.impact_t >= t_lo) & (tr.impact_t <= t_hi)
+    imp_t = tr.impact_t[in_win]
+    stick = tr.stick_intervals
+    stick = stick[(stick[:, 1] >= t_lo) & (stick[:, 0] <= t_hi)] if len(stick) else stick
+    edges = np.clip(stick.ravel(), t_lo, t_hi) if len(stick) else np.empty(0)
+    t = np.union1d(np.linspace(t_lo, t_hi, n), np.concatenate([imp_t, edges]))
+    x, _ = tr.sample(t)
+    y, yj = tr.walls(t)
+    band = tooth_depth(tr.params.j)
+    flank = tr.impact_flank[in_win].astype(np.int8)
+    wall_y, wall_yj = tr.walls(imp_t)
+    imp_x = np.where(flank > 0, wall_y, wall_yj)
+    segs = []
+    for a, b in stick:
+        a, b = max(a, t_lo), min(b, t_hi)
+        if b > a:
+            ts = np.linspace(a, b, max(2, int((b - a) / TWO_PI * points_per_period) + 2))
+            segs.append((ts, tr.sample(ts)[0]))
+    impulse = tr.impact_impulse[in_win]
+    labels = ("t (= ω t, one period is 2π)", "position / H₁", "Ĩ")
+    if phys is not None:
+        def tt(v):
+            return 1e3 * phys.time(np.asarray(v) - t_lo)
+        if angle:
+            def xx(v):
+                return np.degrees(phys.position(np.asarray(v)) / phys.radius)
+            labels = ("t [ms]", "idle-gear angle [°]", "I [N·s]")
+        else:
+            def xx(v):
+                return 1e6 * phys.position(np.asarray(v))
+            labels = ("t [ms]", "position along the line of action [µm]", "I [N·s]")
+        t, imp_t = tt(t), tt(imp_t)
+        x, y, yj, imp_x = xx(x), xx(y), xx(yj), xx(imp_x)
+        band = float(xx(band))
+        segs = [(tt(a), xx(b)) for a, b in segs]
+        impulse = phys.impulse(impulse)
+    motion = {"t": t, "x": x, "y": y, "yj": yj, "tooth_lo": y - band, "tooth_hi": yj + band}
+    impacts = {"t": imp_t, "x": imp_x, "impulse": impulse, "flank": flank}
+    return {"motion": motion, "impacts": impacts, "stick": segs, "labels": labels}
+
+
+# ----- sections --------------------------------------------------------------------------------
+
+def section_points(tr: Any, mode: str) -> tuple[np.ndarray, np.ndarray, str, str]:
+    """Points and axis labels of a section: ``absolute`` ``(x, ẋ)``, ``relative``
+    ``(x − y, ẋ − ẏ)`` at the strobe times, or the ``impact`` map ``(t mod 2π, Ĩ)``."""
+    if mode == "absolute":
+        return tr.strobe_x, tr.strobe_v, "x", "ẋ"
+    if mode == "relative":
+        x, v = tr.strobe_relative()
+        return x, v, "x − y", "ẋ − ẏ"
+    if mode == "impact":
+        return tr.impact_phase, tr.impact_impulse, "impact phase t mod 2π", "impulse Ĩ"
+    raise ValueError(f"section mode = {mode!r}; allowed: absolute, relative, impact")
+
+
+def first_periods(tr, periods: int):
+    """``tr`` cut to its first ``periods`` forcing periods (``tr`` itself if it is not longer).
+
+    Only what the sound uses is kept consistent: the window and the impacts, strobe samples and
+    segments inside it.
+    """
+    if periods >= tr.periods - 1e-9:
+        return tr
+    t_end = tr.t_start + periods * TWO_PI
+    imp = tr.impact_t < t_end
+    strobe = tr.strobe_t < t_end
+    seg = tr.seg_t < t_end
+    return dataclasses.replace(
+        tr, t_end=t_end, impact_t=tr.impact_t[imp], impact_phase=tr.impact_phase[imp],
+        impact_impulse=tr.impact_impulse[imp], impact_flank=tr.impact_flank[imp],
+        impact_w=tr.impact_w[imp], strobe_t=tr.strobe_t[strobe], strobe_x=tr.strobe_x[strobe],
+        strobe_v=tr.strobe_v[strobe], seg_t=tr.seg_t[seg], seg_kind=tr.seg_kind[seg],
+        seg_x=tr.seg_x[seg], seg_v=tr.seg_v[seg])

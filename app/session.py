@@ -1,0 +1,354 @@
+"""One browser session without its widgets: the state, its URL, its runs and its background jobs.
+
+:class:`Session` owns the session's :class:`~app.state.ExplorerState` and keeps it
+consistent. Every change of the state (from a widget, the URL, a preset, a click) arrives at
+one watcher, which
+
+1. carries it across the physical-units link (:func:`app.physical.link`),
+2. simulates once and classifies, and publishes the result as ``state.result``, which
+   every view draws from;
+3. or, when the change cannot run, puts the last good values back, with a message beside
+   the control at fault: a rejected value never reaches the views.
+
+The URL is ``pn.state.location.sync`` of the state. A key whose value param refuses gets a
+message beside its control and the URL shows the value kept; unknown keys and empty values
+get a message too. The messages are plain text (the views escape them).
+
+Background work goes through :class:`SessionJobs`: the server's job pool
+(:mod:`app.jobs`), with results moved onto this session's document. :meth:`Session.destroy`
+cancels the jobs and lets go of everything, so a closed session is garbage.
+"""
+from __future__ import annotations
+
+import itertools
+import logging
+import math
+import re
+import time
+import urllib.parse
+import weakref
+from typing import Any, Callable
+
+import param
+
+from rattle_core import SolverError, classify, simulate
+
+from . import jobs as jobs_module
+from .state import (PHYSICAL_KEYS, RUN_KEYS, URL_KEYS, ExplorerState, Run, rattle_params,
+                             rejection)
+from .physical import LinkError, link, run_physical
+
+log = logging.getLogger(__name__)
+
+#: Every live session (weakly held): a closed session must disappear from here.
+LIVE: "weakref.WeakSet[Session]" = weakref.WeakSet()
+_ids = itertools.count(1)
+#: Parameters a change of which is carried across the link and may need a new run.
+WATCHED = tuple(dict.fromkeys((*RUN_KEYS, *PHYSICAL_KEYS, "units", "solve_for")))
+#: Core parameter names in error messages → state parameters.
+_CORE_NAMES = {"lam": "lam", "Λ": "lam", "r": "r", "j": "j", "v_stick": "v_stick", "x0": "x0",
+               "v0": "v0", "t0": "t0", "periods": "periods", "transient": "transient",
+               "strobe_phase": "strobe"}
+
+
+def field_of_error(message: str) -> str | None:
+    """Which state parameter a core ``ValueError`` is about, from the name it starts with."""
+    m = re.match(r"\s*([A-Za-z_0-9θΛφ]+)(\[(\d+)\])?", message)
+    if not m:
+        return None
+    word, idx = m.group(1), m.group(3)
+    if word in ("amplitudes", "phases_deg") and idx is not None:
+        if int(idx) == 1:
+            return "h2" if word == "amplitudes" else "phi2"
+        return "harmonics"
+    return _CORE_NAMES.get(word)
+
+
+class SessionJobs:
+    """A session's handle on the job pool: one job per kind, callbacks run in its document."""
+
+    def __init__(self, key: int, doc: Any = None, pool: Any = None):
+        self.key, self.doc, self._pool = key, doc, pool
+        self._closed = False
+
+    @property
+    def pool(self):
+        if self._pool is None:
+            self._pool = jobs_module.pool()
+        return self._pool
+
+    def submit(self, kind: str, fn: Callable, args: tuple = (), kwargs: dict | None = None, *,
+               time_limit: float = 60.0, on_progress: Callable | None = None,
+               on_done: Callable | None = None, on_error: Callable | None = None):
+        """Run ``fn`` in the background as this session's ``kind`` job (replacing the last)."""
+        if self._closed:
+            raise RuntimeError("the session is closed")
+        wrap = self._in_doc
+        return self.pool.submit((self.key, kind), fn, args, kwargs, time_limit=time_limit,
+                                on_progress=wrap(on_progress), on_done=wrap(on_done),
+                                on_error=wrap(on_error))
+
+    def _in_doc(self, fn: Callable | None) -> Callable | None:
+        """``fn`` to be run in this session's document (directly when there is none)."""
+        if fn is None:
+            return None
+        ref = weakref.ref(self)
+
+        def call(arg: Any) -> None:
+            me = ref()
+            if me is None or me._closed:
+                return
+            doc = me.doc
+            if doc is None or doc.session_context is None:
+                fn(arg)
+                return
+            from panel.io.state import set_curdoc
+
+            def tick() -> None:
+                with set_curdoc(doc):
+                    try:
+                        fn(arg)
+                    except Exception as exc:  # a failed update stays in this session's log line
+                        log.warning("background update failed: %s: %s", type(exc).__name__, exc)
+            try:
+                doc.add_next_tick_callback(tick)
+            except Exception:
+                pass  # the session closed while the job ran
+        return call
+
+    def close(self) -> None:
+        """Cancel every job of this session; later results are dropped."""
+        self._closed = True
+        if self._pool is not None:
+            self._pool.cancel_session(self.key)
+        self.doc = None
+
+
+class Session:
+    """One session's state, kept consistent and in the URL; see the module docstring."""
+
+    def __init__(self, location: Any = None, doc: Any = None, pool: Any = None):
+        self.key = next(_ids)
+        self.state = ExplorerState()
+        self.jobs = SessionJobs(self.key, doc, pool)
+        self.location = location
+        self.last_ms = math.nan
+        #: How many simulations this session has run (one per accepted change).
+        self.runs = 0
+        self._busy = False
+        self._good = self._snapshot()
+        self._watcher = self.state.param.watch(self._on_change, list(WATCHED))
+        self._search_watcher = None
+        if location is not None:
+            self._sync_url(location)
+        if self.state.result is None:
+            self.refresh(set())
+        LIVE.add(self)
+
+    # ----- the update path --------------------------------------------------------------------
+
+    def _snapshot(self) -> dict[str, Any]:
+        return {k: getattr(self.state, k) for k in WATCHED}
+
+    def _on_change(self, *events) -> None:
+        if self._busy:
+            return
+        self.refresh({e.name for e in events})
+
+    def refresh(self, names: set[str], physical_wins: bool = False) -> bool:
+        """Carry a change of ``names`` across the link, run, publish; False if it was refused."""
+        if self._busy:
+            return False
+        self._busy = True
+        s = self.state
+        try:
+            try:
+                values, warning = link(s, names, physical_wins)
+                if values:
+                    s.param.update(**values)
+            except (LinkError, ValueError) as exc:
+                where = getattr(exc, "name", None) or next((n for n in PHYSICAL_KEYS if n in names), "units")
+                s.say(where, f"{exc}. Kept the last good values.")
+                self._revert()
+                return False
+            if warning:
+                s.say("solve_for", warning)
+            elif "solve_for" in s.messages and names & {"lam", "j", "h2", "phi2", "solve_for", "units"}:
+                s.clear("solve_for")
+            if not (values or names & set(RUN_KEYS) or "units" in names or s.result is None):
+                self._good = self._snapshot()
+                s.clear(*names)
+                return True
+            for _ in range(len(WATCHED)):
+                failed = self._run(names)
+                if failed is None:
+                    break
+                # put back the value at fault only, so one bad value does not cost the others
+                moved = [k for k, v in self._good.items() if getattr(s, k) != v]
+                if failed in moved and len(moved) > 1:
+                    self._put({failed: self._good[failed]})
+                    continue
+                self._revert()
+                return False
+            self._good = self._snapshot()
+            s.clear(*names, "global")
+            return True
+        finally:
+            self._busy = False
+
+    def _run(self, names: set[str]) -> str | None:
+        """Simulate the state and publish the run; or the parameter at fault (``global``)."""
+        s = self.state
+        t0 = time.perf_counter()
+        try:
+            params = rattle_params(s)
+            tr = simulate(params, periods=s.periods, x0=s.x0, v0=s.v0, t0=s.t0,
+                          strobe_phase=math.radians(s.strobe), transient=s.transient, lyapunov=True)
+            cls = classify(tr)
+        except (ValueError, SolverError) as exc:
+            field = field_of_error(str(exc)) if isinstance(exc, ValueError) else None
+            where = field or next((n for n in RUN_KEYS if n in names), "global")
+            s.say(where, f"{exc}. Showing the last good view.")
+            return where
+        ms = 1e3 * (time.perf_counter() - t0)
+        self.runs += 1
+        self.last_ms = ms
+        s.result = Run(params=params, tr=tr, cls=cls, phys=run_physical(s, params), phases=s.phases,
+                       ms=ms)
+        return None
+
+    def _revert(self) -> None:
+        """Put the last good values back (without a new run)."""
+        self._put({k: v for k, v in self._good.items() if getattr(self.state, k) != v})
+
+    def _put(self, values: dict[str, Any]) -> None:
+        if values:
+            busy, self._busy = self._busy, True
+            try:
+                self.state.param.update(**values)
+            finally:
+                self._busy = busy
+
+    # ----- the URL ----------------------------------------------------------------------------
+
+    def _sync_url(self, location: Any) -> None:
+        s = self.state
+
+        def on_error(values: dict[str, Any]) -> None:
+            # the location applies a batch at once: apply the values param accepts, as one
+            # batch again (so the physical inputs of a link still win), and say which it refused
+            good = {}
+            for name, value in values.items():
+                try:
+                    s.param[name]._validate(value)
+                    good[name] = value
+                except ValueError:
+                    s.say(name, "URL: " + rejection(s, name, value))
+            s.param.update(**good)
+            rejected = [n for n in values if n not in good]
+            if rejected:
+                location.update_query(**{URL_KEYS[n]: _serialize(s, n) for n in rejected})
+
+        link = location.search
+        self._check_query(link)
+        location.sync(s, URL_KEYS, on_error=on_error)
+        # the URL shows the state in force: rejected and reverted values corrected, unknown
+        # keys dropped
+        location.search = "?" + urllib.parse.urlencode(
+            {key: _serialize(s, name) for name, key in URL_KEYS.items()})
+        self._physical_wins(link)
+        self._search_watcher = location.param.watch(self._on_search, "search")
+
+    def _on_search(self, event) -> None:
+        # the browser reports the link again once connected, and Panel applies its dimensionless
+        # keys first: the physical inputs it holds must win again
+        if not self._busy:
+            self._physical_wins(event.new)
+            self._show_state_in_url(event.new)
+
+    def _show_state_in_url(self, search: str) -> None:
+        """Correct URL keys whose value is not the one in force (refused, or put back)."""
+        from panel.util import parse_query
+        s, query, fix = self.state, parse_query(search or ""), {}
+        for name, key in URL_KEYS.items():
+            if key in query:
+                try:
+                    same = s.param[name].deserialize(query[key]) == getattr(s, name)
+                except Exception:
+                    same = False
+                if not same and not (query[key] == "" and getattr(s, name) is None):
+                    fix[key] = _serialize(s, name)
+        unknown = [k for k in query if k not in set(URL_KEYS.values())]
+        if unknown:  # dropped: the URL says what is in force, nothing else
+            kept = {k: v for k, v in urllib.parse.parse_qsl((search or "")[1:]) if k not in unknown}
+            merged = {**kept, **fix}
+            self.location.search = "?" + urllib.parse.urlencode(merged) if merged else ""
+        elif fix:
+            self.location.update_query(**fix)
+
+    def _physical_wins(self, search: str) -> None:
+        """A link holding physical inputs: they decide Λ, j, h₂, φ₂ while the mode is on."""
+        from panel.util import parse_query
+        s, query = self.state, parse_query(search or "")
+        if not any(URL_KEYS[n] in query for n in PHYSICAL_KEYS):
+            return
+        diff = {}
+        for n in ("units", *PHYSICAL_KEYS):
+            if URL_KEYS[n] in query:
+                value = s.param[n].deserialize(query[URL_KEYS[n]])
+                try:
+                    s.param[n]._validate(value)
+                except ValueError:
+                    continue  # refused when the link was first applied, with its message
+                if value != getattr(s, n):
+                    diff[n] = value
+        if diff:
+            busy, self._busy = self._busy, True
+            try:
+                s.param.update(**diff)
+            finally:
+                self._busy = busy
+        if s.units:
+            self.refresh(set(diff), physical_wins=True)
+
+    def _check_query(self, search: str) -> None:
+        """Messages for the link's unknown keys and empty values (which are not applied)."""
+        s = self.state
+        names = {v: k for k, v in URL_KEYS.items()}
+        pairs = urllib.parse.parse_qsl((search or "")[1:], keep_blank_values=True)
+        unknown = [k for k, _ in pairs if k not in names]
+        if unknown:
+            from .labels import short
+            s.say("url", f"URL: unknown key{'s' if len(unknown) > 1 else ''} "
+                            f"{', '.join(short(k) for k in unknown[:5])} ignored.")
+        for key, value in pairs:
+            name = names.get(key)
+            if name is not None and value == "" and name not in ("x0", "cont_from") and getattr(s, name) != "":
+                s.say(name, f"URL: {s.param[name].label} is empty. Kept {_serialize(s, name)}.")
+
+    # ----- teardown -----------------------------------------------------------------------------
+
+    def destroy(self) -> None:
+        """The session closed: cancel its jobs and drop every reference to its results."""
+        self.jobs.close()
+        try:
+            self.state.param.unwatch(self._watcher)
+        except Exception:
+            pass
+        if self.location is not None:
+            if self._search_watcher is not None:
+                self.location.param.unwatch(self._search_watcher)
+            try:
+                self.location.unsync(self.state)
+            except Exception:
+                pass
+            self.location = None
+        with param.parameterized.discard_events(self.state):  # no view redraws a closed page
+            self.state.result = None
+
+
+def _serialize(state: ExplorerState, name: str) -> str:
+    """The state's value of ``name`` as the URL carries it."""
+    import json
+    v = state.param[name].serialize(getattr(state, name))
+    return v if isinstance(v, str) else json.dumps(v)

@@ -1,0 +1,110 @@
+"""The time history x(t) between the teeth: the one view drawn with Bokeh directly, not HoloViews.
+
+Why Bokeh here: every slider move redraws this plot, and its picture needs eight layers (two
+teeth, two walls, the gear, impacts on each flank, stick phases). As a HoloViews
+``DynamicMap`` overlay, one redraw cost about 80 ms of server CPU on the project's 2-core
+machine (about 10 ms per layer: element construction, option lookup, range computation,
+glyph update), which with the section, the diagram marker and the badge took a slider move
+to about 290 ms, twice the 150 ms budget (``benchmarks/bench_app.py``). Here the figure is
+built once per session and a redraw replaces the data of its ``ColumnDataSource``s: about
+8 ms. The section and the diagram stay HoloViews elements.
+
+The ranges are ``DataRange1d``: they follow the data until the user zooms, keep the user's
+zoom across redraws, and the reset tool returns to the data. In physical-units mode the axes
+are ms and µm (or degrees of the idle gear). The title holds the parameters, so a saved PNG
+carries them, and the save tool's file name does too. Each flank's impacts are a legend
+entry of their own, in their own colour.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import panel as pn
+import param
+from bokeh.models import (ColumnDataSource, DataRange1d, HoverTool, Legend, LegendItem, SaveTool)
+from bokeh.plotting import figure
+
+from .state import ExplorerState
+from .labels import ACTIVE_COLOR, GEAR_COLOR, REVERSE_COLOR, STICK_COLOR, TOOTH_COLOR
+from .plots import caption, file_stem, time_history_data
+
+MOTION = ("t", "x", "y", "yj", "tooth_lo", "tooth_hi")
+IMPACTS = ("t", "x", "impulse")
+
+
+def time_history_figure() -> tuple[Any, dict[str, ColumnDataSource]]:
+    """The figure and its data sources (``motion``, ``active``, ``reverse``, ``stick``)."""
+    src = {"motion": ColumnDataSource({k: [] for k in MOTION}, name="th_motion"),
+           "active": ColumnDataSource({k: [] for k in IMPACTS}, name="th_active"),
+           "reverse": ColumnDataSource({k: [] for k in IMPACTS}, name="th_reverse"),
+           "stick": ColumnDataSource({"xs": [], "ys": []}, name="th_stick")}
+    p = figure(height=330, sizing_mode="stretch_width", tools="pan,wheel_zoom,box_zoom,reset",
+               active_scroll="wheel_zoom", x_range=DataRange1d(), y_range=DataRange1d(),
+               output_backend="canvas", name="time_history")
+    p.add_tools(SaveTool(filename="rattle_time"))
+    p.title.text_font_size = "10pt"
+    m = src["motion"]
+    teeth_a = p.varea(x="t", y1="tooth_lo", y2="y", source=m, fill_color=TOOTH_COLOR, fill_alpha=0.55)
+    teeth_r = p.varea(x="t", y1="yj", y2="tooth_hi", source=m, fill_color=TOOTH_COLOR, fill_alpha=0.55)
+    wall_a = p.line("t", "y", source=m, color="#5d6d7e", line_width=1.5)
+    wall_r = p.line("t", "yj", source=m, color="#5d6d7e", line_width=1.5, line_dash="dashed")
+    gear = p.line("t", "x", source=m, color=GEAR_COLOR, line_width=1.8)
+    stick = p.multi_line("xs", "ys", source=src["stick"], color=STICK_COLOR, line_width=6,
+                         line_alpha=0.8)
+    act = p.scatter("t", "x", source=src["active"], color=ACTIVE_COLOR, size=7, line_color="white")
+    rev = p.scatter("t", "x", source=src["reverse"], color=REVERSE_COLOR, size=7, line_color="white")
+    p.add_tools(HoverTool(renderers=[act, rev], tooltips=[("t", "@t{0.000}"), ("impulse", "@impulse{0.0000}")]))
+    legend = Legend(items=[LegendItem(label="gear x(t)", renderers=[gear]),
+                           LegendItem(label="active tooth y(t)", renderers=[wall_a, teeth_a]),
+                           LegendItem(label="reverse tooth y(t) + j", renderers=[wall_r, teeth_r]),
+                           LegendItem(label="impact, active flank", renderers=[act]),
+                           LegendItem(label="impact, reverse flank", renderers=[rev]),
+                           LegendItem(label="permanent contact", renderers=[stick])],
+                    location="top_left", click_policy="hide", background_fill_alpha=0.7)
+    p.add_layout(legend, "right")
+    return p, src
+
+
+class TimeHistoryView(pn.viewable.Viewer):
+    """x(t) between the teeth of the current run (see the module docstring)."""
+
+    state = param.ClassSelector(class_=ExplorerState)
+
+    def __init__(self, **params: Any):
+        super().__init__(**params)
+        self.fig, self.sources = time_history_figure()
+        self.pane = pn.pane.Bokeh(self.fig, sizing_mode="stretch_width", css_classes=["time-history"])
+        self._axes: tuple | None = None
+        self.state.param.watch(self.draw, ["result", "shown", "backlash_unit"])
+        self.draw()
+
+    def __panel__(self):
+        return self.pane
+
+    def draw(self, *_: Any) -> None:
+        run = self.state.result
+        if run is None:
+            return
+        tr = run.tr
+        data = time_history_data(tr, min(self.state.shown, int(tr.periods)), run.phys,
+                                 angle=self.state.backlash_unit == "deg")
+        self.sources["motion"].data = data["motion"]
+        imp = data["impacts"]
+        for key, sel in (("active", imp["flank"] > 0), ("reverse", imp["flank"] < 0)):
+            self.sources[key].data = {k: np.asarray(imp[k])[sel] for k in IMPACTS}
+        self.sources["stick"].data = {"xs": [s[0] for s in data["stick"]],
+                                      "ys": [s[1] for s in data["stick"]]}
+        xl, yl, _ = data["labels"]
+        if self._axes != (xl, yl):
+            if self._axes is not None:  # new units: the old zoom means nothing
+                self.fig.x_range, self.fig.y_range = DataRange1d(), DataRange1d()
+            self._axes = (xl, yl)
+            self.fig.xaxis.axis_label, self.fig.yaxis.axis_label = xl, yl
+        title = f"Time history · {caption(run)}"
+        if self.fig.title.text != title:
+            self.fig.title.text = title
+        stem = file_stem(run, "time")
+        for tool in self.fig.toolbar.tools:
+            if isinstance(tool, SaveTool) and tool.filename != stem:
+                tool.filename = stem

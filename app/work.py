@@ -1,0 +1,80 @@
+"""Work run in the job pool's worker processes: bifurcation diagrams and 2-D maps.
+
+Each function takes plain values (a ``RattleParams``, arrays, numbers) and returns plain
+data, since both cross a process boundary. Progress and cancellation reach the running sweep
+through :func:`app.jobs.report` and :func:`app.jobs.cancelled`. Sweeps and maps go through
+the core's disk cache, so a diagram or map asked for twice is computed once.
+"""
+from __future__ import annotations
+
+import contextlib
+from typing import Any
+
+import numpy as np
+
+from rattle_core import RattleParams
+
+from .jobs import cancelled, report
+
+#: Dask clients of this worker process, by scheduler address (the server's command line).
+_clients: dict[str, Any] = {}
+
+
+def warm_up() -> None:
+    """Load the compiled kernels before the first job (each worker runs this once)."""
+    from rattle_core import simulate
+    simulate(RattleParams(lam=3.3, amplitudes=(1.0, 0.25), phases_deg=(0.0, 45.0)), periods=5,
+             transient=2)
+    diagram(RattleParams(lam=2.0), "lam", np.array([2.0, 2.5]), 2, 2, use_cache=False)
+
+
+def diagram(params: RattleParams, name: str, values: np.ndarray, transient: int, record: int,
+            use_cache: bool = True) -> dict[str, np.ndarray | bool]:
+    """Impacts against ``name`` swept over ``values``, and each value's regime.
+
+    Returns ``value``, ``impulse``, ``flank`` (one entry per recorded impact) and
+    ``swept``, ``regime``, ``chaotic`` (one per value run), ``cancelled``.
+    """
+    if use_cache:
+        from .core import cached_sweep as run
+    else:
+        from rattle_core import sweep as run
+    res = run(params, name, np.asarray(values, dtype=np.float64), transient=transient,
+              record=record, mode="fresh", progress=report, cancel=cancelled)
+    t, s = res.table, res.summary
+    return {"value": np.asarray(t["value"], dtype=np.float64),
+            "impulse": np.asarray(t["impulse"], dtype=np.float64),
+            "flank": np.asarray(t["flank"], dtype=np.int8),
+            "swept": np.asarray(s["value"], dtype=np.float64),
+            "regime": np.asarray(s["regime"], dtype="U5"),
+            "chaotic": np.asarray(s["chaotic"], dtype=bool),
+            "cancelled": bool(res.cancelled)}
+
+
+def _client(address: str) -> Any:
+    """A Dask client for ``address`` (one per worker process, kept for the next map)."""
+    client = _clients.get(address)
+    if client is None or client.status != "running":
+        from dask.distributed import Client
+        try:
+            client = Client(address, timeout="5s", set_as_default=False)
+        except Exception as exc:
+            raise ConnectionError(f"the server's Dask scheduler cannot be reached: "
+                                  f"{' '.join(str(exc).split())[:200]}") from None
+        _clients[address] = client
+    return client
+
+
+def regime_map(params: RattleParams, phys: Any, x_name: str, x_values: np.ndarray, y_name: str,
+               y_values: np.ndarray, transient: int, record: int, scheduler: str = "") -> Any:
+    """A regime map or basins over two axes (``rattle_core.maps.run_map``), on Dask if given.
+
+    ``scheduler`` comes from the server's command line only, never from a page.
+    """
+    from .core import run_map
+    executor = _client(scheduler) if scheduler else None
+    kwargs = {"executor": executor} if executor is not None else {}
+    with executor.as_current() if executor is not None else contextlib.nullcontext():
+        return run_map(params, phys, x_name, x_values, y_name, y_values, use_cache=True,
+                       progress=report, cancel=cancelled, transient=transient, record=record,
+                       **kwargs)

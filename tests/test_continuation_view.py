@@ -1,0 +1,122 @@
+"""The dashboard's continuation without a browser: the branch drawn on the diagram, its marks,
+the multipliers plot, the state it leaves for the URL and the cache that redraws it.
+
+The harmonic C orbit (r = 0.65, j = 8; the paper's Figure 3C at Λ = 1.2) is checked against
+closed forms: its impulse is 2π/Λ all along the branch, and it period-doubles at
+Λ = √(Γ₁² + (2(1+r²)/(1+r)²)²), Γ₁ = π(1−r)/(1+r).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from conftest import wait_for
+
+from app.branch import continue_both_ways, from_job
+from app.continuation_view import branch_overlay, multipliers_element
+from app.state import PRESETS
+from rattle_core import RattleParams
+from rattle_core.analysis.continuation import c_orbit
+
+R = 0.65
+LAM_PD = math.hypot(math.pi * (1 - R) / (1 + R), 2 * (1 + R**2) / (1 + R) ** 2)
+
+
+def continued(dash, **values):
+    """Set the state, press "Continue this orbit" and wait for the branch."""
+    s = dash.state
+    s.param.update(**values)
+    assert not dash.continuation.button.disabled
+    dash.continuation.button.clicks += 1
+    wait_for(lambda: s.branch is not None or "continuation" in s.messages, 180, "the branch")
+    assert s.branch is not None, s.messages
+    return s.branch
+
+
+def test_c_branch_on_the_diagram_is_two_pi_over_lambda_and_period_doubles_at_the_closed_form(dash):
+    """Continued from regime C at Λ = 1.2: stable part Ĩ = 2π/Λ to 1e-9, PD mark at 1.23940."""
+    s = dash.state
+    b = continued(dash, **PRESETS["Fig 3C"][1])
+    assert s.result.cls.regime == "C" and s.continuation and s.cont_from == 1.2
+    ov = dash.diagram._branch(s.branch)
+    stable, unstable, marks, labels = ov.values()
+    xy = np.concatenate([p[:, :2] for p in stable.split(datatype="array")])
+    strict = np.concatenate([g[g["stable"]][["x", "y"]].to_numpy()
+                             for _, g in b.impacts.groupby("direction")])
+    assert len(strict) >= 10
+    np.testing.assert_allclose(strict[:, 1], 2 * np.pi / strict[:, 0], rtol=0, atol=1e-9)
+    # the drawn stable line is those points (plus where it meets the dashed part)
+    assert np.isin(strict[:, 0], xy[:, 0]).all() and len(xy) <= len(strict) + 4
+    assert len(unstable.split()) >= 1 and unstable.dframe()["x"].max() > 3.9
+    pd_marks = marks.dframe()[marks.dframe()["label"] == "PD"]
+    assert len(pd_marks) >= 1
+    assert pd_marks["x"].to_numpy()[0] == pytest.approx(LAM_PD, abs=1e-6)
+    assert pd_marks["y"].to_numpy()[0] == pytest.approx(2 * np.pi / LAM_PD, abs=1e-6)
+    assert "PD" in list(labels.dframe()["label"])
+    # going up from Λ = 1.2 the branch is stable until 1.2394, then unstable (μ crossed −1)
+    up = b.points[b.points["direction"] == "up"]
+    assert up[up["x"] < LAM_PD - 1e-6]["stable"].all()
+    assert not up[up["x"] > LAM_PD + 1e-6]["stable"].any()
+    assert "PD at 1.2394" in dash.continuation.status.object
+
+
+def test_multipliers_of_the_current_point_lie_inside_the_unit_circle_when_stable(dash):
+    """The multipliers plot shows the nearest branch point's μ: inside |μ| = 1 at Λ = 1.2, one
+    outside at Λ = 2 on the same (now unstable) branch; the C orbit's own multipliers."""
+    s = dash.state
+    continued(dash, **PRESETS["Fig 3C"][1])
+    circle, pts = dash.continuation._multipliers(s.branch, s.result).values()
+    mu = pts.array()
+    want = c_orbit(RattleParams(lam=1.2)).multipliers
+    assert len(mu) == 2 and np.all(np.hypot(mu[:, 0], mu[:, 1]) < 1.0)
+    np.testing.assert_allclose(np.sort_complex(mu[:, 0] + 1j * mu[:, 1]), np.sort_complex(want),
+                               atol=1e-9)
+    assert np.allclose(np.hypot(*circle.array().T), 1.0)
+    # moving Λ keeps the branch and moves the point along it
+    branch = s.branch
+    s.lam = 2.0
+    assert s.branch is branch and s.continuation and s.cont_from == 1.2
+    _, pts = dash.continuation._multipliers(s.branch, s.result).values()
+    assert np.max(np.hypot(*pts.array().T)) > 1.0
+    assert "unstable" in multipliers_element(s.branch, 2.0).opts.get().kwargs["title"]
+
+
+def test_branch_is_redrawn_from_the_cache_and_dropped_when_other_parameters_change(dash, tmp_path):
+    """The state (continuation, cont_from) alone brings the branch back, from the disk cache;
+    a change of r hides it and clears those keys; the job's arrays round-trip without pickle."""
+    s = dash.state
+    first = continued(dash, **PRESETS["Fig 3C"][1])
+    s.param.update(continuation=False, cont_from=None)
+    assert s.branch is None
+    s.param.update(continuation=True, cont_from=1.2)  # what a reopened link sets
+    wait_for(lambda: s.branch is not None, 120, "the cached branch")
+    assert s.branch.from_cache
+    np.testing.assert_array_equal(s.branch.points["x"], first.points["x"])
+    s.r = 0.6
+    assert s.branch is None and not s.continuation and s.cont_from is None
+    # the cache entry: saved as npz, loaded with allow_pickle=False, equal to a fresh run
+    run = s.result
+    args = (run.params.with_value("r", R).with_value("lam", 1.2), None, "lam", (0.5, 4.0),
+            {"x0": None, "v0": 0.0, "t0": 0.0, "transient": 2000})
+    fresh = continue_both_ways(*args, use_cache=False)
+    stored = continue_both_ways(*args, directory=str(tmp_path))
+    again = continue_both_ways(*args, directory=str(tmp_path))
+    assert not stored["from_cache"] and again["from_cache"]
+    assert list(tmp_path.glob("cont-*.npz"))
+    for k, v in fresh["arrays"].items():
+        np.testing.assert_array_equal(again["arrays"][k], v)
+    assert again["meta"]["up"]["key"] == fresh["meta"]["up"]["key"]
+    b = from_job("lam", "paper", None, (), 1.2, again)
+    assert len(b.points) == len(first.points)
+
+
+def test_button_needs_a_periodic_regime_and_no_branch_is_drawn_for_another_diagram(dash):
+    """Chaos (Figure 3D, Λ = 1.16) disables the button; a branch of Λ draws nothing on φ₂."""
+    s = dash.state
+    s.param.update(**PRESETS["Fig 3D"][1])
+    assert s.result.cls.chaotic and dash.continuation.button.disabled
+    empty = branch_overlay(None, "lam")
+    assert not any(np.isfinite(e.dframe()["x"]).any() for e in empty.values())
+    b = continued(dash, **PRESETS["Fig 3C"][1])
+    assert not any(np.isfinite(e.dframe()["x"]).any() for e in branch_overlay(b, "phi2").values())

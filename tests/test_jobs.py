@@ -1,0 +1,99 @@
+"""The job pool: background work in worker processes, bounded in time, killable, shared fairly.
+
+A job that never returns stands in for a solver that hangs (``time.sleep``, run in a worker);
+a real diagram sweep checks the results and progress against ``rattle_core.sweep``.
+"""
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from app import work
+from app.jobs import JobPool
+from rattle_core import RattleParams, sweep
+
+pytestmark = pytest.mark.timeout(300)
+
+
+@pytest.fixture(scope="module")
+def pool():
+    p = JobPool(size=2, grace=1.0)
+    yield p
+    p.shutdown()
+
+
+class Outcome:
+    def __init__(self):
+        self.done = threading.Event()
+        self.result = self.error = None
+        self.progress: list[float] = []
+
+    def kwargs(self) -> dict:
+        return {"on_done": self._done, "on_error": self._error, "on_progress": self.progress.append}
+
+    def _done(self, r):
+        self.result = r
+        self.done.set()
+
+    def _error(self, m):
+        self.error = m
+        self.done.set()
+
+
+def test_a_diagram_job_returns_the_sweep_with_progress(pool):
+    """A sweep run in a worker equals rattle_core.sweep, and reports progress up to 1."""
+    base = RattleParams(lam=2.0, amplitudes=(1.0, 0.25), phases_deg=(0.0, -135.0))
+    values = np.linspace(1.0, 3.0, 40)
+    out = Outcome()
+    pool.submit(("s", "diagram"), work.diagram, (base, "lam", values, 100, 30), {"use_cache": False},
+                **out.kwargs())
+    assert out.done.wait(120) and out.error is None
+    ref = sweep(base, "lam", values, transient=100, record=30)
+    np.testing.assert_array_equal(out.result["impulse"], ref.table["impulse"].to_numpy())
+    np.testing.assert_array_equal(out.result["regime"], ref.summary["regime"].to_numpy())
+    assert out.progress and out.progress[-1] == 1.0
+
+
+def test_a_job_past_its_time_limit_is_killed_and_others_still_run(pool):
+    """One session's hung job is killed at its limit; another session's job finishes meanwhile."""
+    hung, quick = Outcome(), Outcome()
+    t0 = time.monotonic()
+    pool.submit(("a", "diagram"), time.sleep, (1000,), time_limit=3.0, **hung.kwargs())
+    pool.submit(("b", "diagram"), work.diagram, (RattleParams(lam=2.0), "lam", np.linspace(1, 2, 10), 50, 20),
+                {"use_cache": False}, **quick.kwargs())
+    assert quick.done.wait(60) and quick.error is None
+    assert time.monotonic() - t0 < 3.0  # did not wait for the hung job
+    assert hung.done.wait(30) and "time limit" in hung.error
+    assert 3.0 <= time.monotonic() - t0 < 15.0
+    assert len([w for w in pool._workers if w.process.is_alive()]) == 2
+
+
+def test_cancel_kills_a_job_that_does_not_stop_and_calls_nothing_back(pool):
+    """A cancelled job that ignores its flag is killed after the grace; no callback runs."""
+    out = Outcome()
+    job = pool.submit(("c", "x"), time.sleep, (1000,), **out.kwargs())
+    time.sleep(0.5)
+    pid = next(w.process.pid for w in pool._workers if w.job is job)
+    job.cancel()
+    deadline = time.monotonic() + 15
+    while any(w.process.pid == pid for w in pool._workers) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not any(w.process.pid == pid for w in pool._workers)
+    assert job.cancelled and not out.done.wait(1.0)
+
+
+def test_a_new_request_replaces_the_sessions_last_and_session_end_cancels_all(pool):
+    """Per session and kind one job: queued ones are replaced; cancel_session cancels them all."""
+    blockers = [pool.submit((f"busy{i}", "x"), time.sleep, (1000,)) for i in range(2)]
+    first = pool.submit(("d", "diagram"), time.sleep, (0.1,))
+    second = pool.submit(("d", "diagram"), time.sleep, (0.1,))
+    other = pool.submit(("d", "map"), time.sleep, (0.1,))
+    assert first.status == "cancelled" and second.status == "queued" and other.status == "queued"
+    pool.cancel_session("d")
+    assert second.cancelled and other.cancelled
+    assert [j for j in pool.pending("d")] == []
+    for b in blockers:
+        b.cancel()

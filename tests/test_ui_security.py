@@ -1,0 +1,132 @@
+"""Browser tests of what a hostile link or a closed page can do to the server: nothing.
+
+* Every URL key (and a key name) with script payloads: the page opens no dialog, each value
+  is refused with a message that shows the payload as text, and the state stays good.
+* No page can choose where the server connects (the Dask scheduler is the command line's).
+* Sessions opened and closed are freed: their sessions and dashboards are collected, and
+  their background work is cancelled.
+"""
+from __future__ import annotations
+
+import gc
+import time
+import urllib.parse
+import weakref
+
+import pytest
+
+from app import dashboard as dashboard_module
+from app import session as session_module
+from app.state import URL_KEYS
+from test_ui import READY, box_value, open_dashboard
+
+pytestmark = [pytest.mark.ui, pytest.mark.timeout(900)]
+
+PAYLOADS = ("<img src=x onerror=alert(document.domain)>", "<script>alert(42)</script>",
+            "\"><svg onload=alert(7)>")
+#: Keys whose control shows its message in the sidebar, while the Explorer tab is open.
+SHOWN = ("lam", "r", "j", "h2", "phi2")
+
+
+def watch_dialogs(page) -> list[str]:
+    dialogs: list[str] = []
+
+    def on_dialog(d) -> None:
+        dialogs.append(d.message)
+        d.dismiss()
+    page.on("dialog", on_dialog)
+    return dialogs
+
+
+@pytest.mark.parametrize("payload", PAYLOADS)
+def test_every_url_key_with_a_script_payload_runs_nothing(page, dashboard_server, payload):
+    """All keys (and one key name) carry the payload: no dialog, messages show it as text."""
+    dialogs = watch_dialogs(page)
+    query = urllib.parse.urlencode({**{k: payload for k in URL_KEYS.values()}, payload: "1"})
+    open_dashboard(page, dashboard_server, "?" + query)
+    page.wait_for_timeout(2500)
+    assert dialogs == []
+    assert box_value(page, "lam") == pytest.approx(3.3) and box_value(page, "r") == pytest.approx(0.65)
+    for name in SHOWN:
+        msg = page.locator(f".msg-{name} p").first
+        msg.wait_for(state="visible", timeout=10_000)
+        assert payload[:30] in msg.inner_text()  # as text: the browser did not parse it
+    url_msg = page.locator(".msg-url p").first.inner_text()
+    assert "unknown key" in url_msg and payload[:20] in url_msg
+    assert page.locator(".msg-lam img, .msg-lam script, .msg-url img, .msg-url svg").count() == 0
+    page.locator(".rattle-badge").first.wait_for(timeout=20_000)
+    assert dashboard_server["log"].tracebacks() == []
+
+
+def test_each_url_key_alone_with_a_payload_opens_no_dialog(page, dashboard_server):
+    """One key at a time (each in its own session): no dialog, the page stays drawn."""
+    dialogs = watch_dialogs(page)
+    payload = PAYLOADS[0]
+    for key in (*URL_KEYS.values(), "<img src=x onerror=alert(1)>"):
+        page.goto(f"{dashboard_server['url']}/?" + urllib.parse.urlencode({key: payload}))
+        page.wait_for_function(READY, timeout=60_000)
+    page.wait_for_timeout(1000)
+    assert dialogs == []
+    assert dashboard_server["log"].tracebacks() == []
+
+
+def test_no_page_chooses_where_the_server_connects(page, dashboard_server):
+    """The Maps tab has no scheduler field; a scheduler key in the URL is an unknown key."""
+    open_dashboard(page, dashboard_server, "?scheduler=tcp%3A%2F%2F203.0.113.9%3A8786")
+    page.locator(".msg-url p").first.wait_for(timeout=10_000)
+    assert "'scheduler'" in page.locator(".msg-url p").first.inner_text()
+    page.locator(".bk-tab", has_text="Maps").first.click()
+    page.locator(".map-compute button").first.wait_for(timeout=20_000)
+    assert page.locator(".map-scheduler").count() == 0
+    assert "this server's cores" in page.locator(".map-where div").first.inner_text()
+
+
+def test_twenty_closed_sessions_are_collected(browser, dashboard_server):
+    """20 pages opened and closed: their sessions and dashboards are garbage-collected."""
+    refs = []
+    context = browser.new_context(viewport={"width": 1400, "height": 1000})
+    try:
+        for i in range(20):
+            p = context.new_page()
+            p.goto(f"{dashboard_server['url']}/?lam={2 + i / 20}")
+            p.wait_for_function(READY, timeout=60_000)
+            dash = max(dashboard_module.LIVE, key=lambda d: d.session.key)
+            assert dash.state.lam == pytest.approx(2 + i / 20)
+            refs += [weakref.ref(dash), weakref.ref(dash.session), weakref.ref(dash.state)]
+            del dash
+            p.close()
+    finally:
+        context.close()
+    assert len(refs) == 60
+    deadline = time.monotonic() + 60
+    while any(r() is not None for r in refs) and time.monotonic() < deadline:
+        gc.collect()
+        time.sleep(1.0)
+    alive = [type(r()).__name__ for r in refs if r() is not None]
+    assert alive == []
+    assert dashboard_server["log"].tracebacks() == []
+
+
+def test_closing_the_page_cancels_its_background_work(browser, dashboard_server):
+    """A session's running map is cancelled when its page closes."""
+    from app import jobs
+    context = browser.new_context(viewport={"width": 1400, "height": 1000})
+    p = context.new_page()
+    open_dashboard(p, dashboard_server)
+    key = max(s.key for s in session_module.LIVE)
+    p.locator(".bk-tab", has_text="Maps").first.click()
+    for css, value in ((".map-x-num", "200"), (".map-y-num", "200"), (".map-transient", "400")):
+        box = p.locator(f"{css} input").first
+        box.fill(value)
+        box.press("Enter")
+    p.wait_for_timeout(500)
+    p.locator(".map-compute button").first.click()
+    deadline = time.monotonic() + 20
+    while not jobs.pool().pending(key) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert jobs.pool().pending(key), "the map never started"
+    context.close()
+    deadline = time.monotonic() + 60
+    while jobs.pool().pending(key) and time.monotonic() < deadline:
+        time.sleep(0.5)
+    assert jobs.pool().pending(key) == []
