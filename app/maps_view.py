@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import io
 import math
+import weakref
 from typing import Any
 
 import holoviews as hv
@@ -84,6 +85,8 @@ class MapsView(pn.viewable.Viewer):
         self.settings = m = MapSettings()
         self.result: Any = None
         self._request: dict | None = None
+        self._figure = lambda: None
+        self._generation = 0
         m.param.watch(self._on_axis, ["x_axis", "y_axis"])
         m.param.watch(self._on_kind, "kind")
         self.state.param.watch(self._on_units, "units")
@@ -102,15 +105,9 @@ class MapsView(pn.viewable.Viewer):
         self.download = pn.widgets.FileDownload(callback=self._csv, filename="map.csv", label="Map as CSV",
                                                 color="success", disabled=True,
                                                 css_classes=["map-download"], sizing_mode="stretch_width")
-        self.image = hv.DynamicMap(self._image, streams=[hv.streams.Params(self, ["revision"]),
-                                                         hv.streams.Params(m, ["field"])])
-        self.marker = hv.DynamicMap(self._marker, streams=[hv.streams.Params(self.state, ["result"]),
-                                                           hv.streams.Params(self, ["revision"])])
-        self.tap = hv.streams.Tap(source=self.image)
-        self.tap.add_subscriber(lambda x=None, y=None, **_: later(self.select_point, x, y))
-        self.pane = pn.pane.HoloViews((self.image * self.marker).opts(
-            hv.opts.Overlay(width=640, height=520, framewise=True, hooks=[_name_plot])),
-            css_classes=["map-plot"])
+        self.pane = pn.pane.HoloViews(self._plot(), css_classes=["map-plot"])
+        # a new colour scale (regimes, log intensity, linear) needs a plot of its own
+        m.param.watch(lambda e: setattr(self.pane, "object", self._plot()), "field")
         self._choices = {n: Choice(m, n, {_axis_label(a): a for a in self._axes()}, select=True,
                                    sizing_mode="stretch_width") for n in ("x_axis", "y_axis")}
         self._field = Choice(m, "field", {v: k for k, v in FIELDS.items()}, select=True, width=300)
@@ -276,10 +273,32 @@ class MapsView(pn.viewable.Viewer):
 
     # ----- drawing ------------------------------------------------------------------------------
 
-    def _image(self, revision: int = 0, field: str = "regime") -> hv.Image:
-        r = self.result
+    def _plot(self) -> Any:
+        """The map and the current point, with a click stream (one per colour scale)."""
+        self.image = hv.DynamicMap(self._image, streams=[hv.streams.Params(self, ["revision"])])
+        self.marker = hv.DynamicMap(self._marker, streams=[hv.streams.Params(self.state, ["result"]),
+                                                           hv.streams.Params(self, ["revision"])])
+        ref = weakref.ref(self)
+        self.tap = hv.streams.Tap(source=self.image)
+        self.tap.add_subscriber(lambda x=None, y=None, **_: ref() and later(ref().select_point, x, y))
+        old = self._figure()
+        if old is not None:  # the page's map is the new plot's
+            old.name = None
+        self._generation += 1
+        generation = self._generation
+
+        def name_plot(plot: Any, element: Any) -> None:
+            me = ref()
+            if me is not None and me._generation == generation:
+                plot.state.name = "map_figure"
+                me._figure = weakref.ref(plot.state)
+        return (self.image * self.marker).opts(
+            hv.opts.Overlay(width=640, height=520, hooks=[name_plot]))
+
+    def _image(self, revision: int = 0) -> hv.Image:
+        r, field = self.result, self.settings.field
         if r is None:
-            return hv.Image(np.full((2, 2), np.nan), bounds=(0, 0, 1, 1)).opts(colorbar=False)
+            return hv.Image(np.full((2, 2), np.nan), bounds=(0, 0, 1, 1)).opts(colorbar=False, framewise=True)
         if field not in r.fields:
             field = "attractor" if r.kind == "basin" else "regime"
         z = np.asarray(r.fields[field], dtype=np.float64).copy()
@@ -294,7 +313,7 @@ class MapsView(pn.viewable.Viewer):
                         f["period"], f["intensity"], f["lyapunov"]),
                        [hv.Dimension("x", label=AXES.get(r.x_name, r.x_name)),
                         hv.Dimension("y", label=AXES.get(r.y_name, r.y_name))], vd)
-        opts = {"clipping_colors": {"NaN": (0, 0, 0, 0)}, "tools": [*TOOLS, "tap", "hover"],
+        opts = {"clipping_colors": {"NaN": (0, 0, 0, 0)}, "tools": [*TOOLS, "tap", "hover"], "framewise": True,
                 "title": f"{FIELDS.get(field, 'attractor reached')} · {'basins' if r.kind == 'basin' else 'regime map'}"}
         if field == "regime":
             opts.update(cmap=[REGIME_COLOR[k] for k in REGIME_CODES], clim=(-0.5, len(REGIME_CODES) - 0.5),
@@ -322,7 +341,7 @@ class MapsView(pn.viewable.Viewer):
             else:
                 point = (getattr(s, r.x_name), getattr(s, r.y_name))
         return hv.Points([point] if point else []).opts(marker="circle_cross", size=14, fill_color=None,
-                                                        line_color="white", line_width=2)
+                                                        line_color="white", line_width=2, framewise=True)
 
     def _on_result(self, *_: Any) -> None:
         r, req, run = self.result, getattr(self, "_shown", None), self.state.result
@@ -366,10 +385,6 @@ class MapsView(pn.viewable.Viewer):
 
     def _csv(self) -> io.StringIO:
         return io.StringIO("" if self.result is None else self.result.table().to_csv(index=False))
-
-
-def _name_plot(plot: Any, element: Any) -> None:
-    plot.state.name = "map_figure"
 
 
 def _axis_label(name: str) -> str:

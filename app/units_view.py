@@ -92,12 +92,14 @@ class UnitsView(pn.viewable.Viewer):
             "phase2": Field(s, "phase2", "φ₂ · order-2 phase [°], cos(2ωt − φ₂)"),
         }
         self.backlash = BacklashField(s)
-        self.backlash_unit = Choice(s, "backlash_unit", BACKLASH_OPTIONS, sizing_mode="stretch_width")
+        self.backlash_unit = Choice(s, "backlash_unit", BACKLASH_OPTIONS, sizing_mode="stretch_width",
+                                    orientation="vertical")
         self.excitation = pn.widgets.RadioButtonGroup(options=EXCITATION_OPTIONS, value=s.excitation,
-                                                      css_classes=["ctl-excitation"],
+                                                      css_classes=["ctl-excitation"], orientation="vertical",
                                                       sizing_mode="stretch_width")
         self.excitation.param.watch(self._on_excitation, "value")
-        self.solve_for = Choice(s, "solve_for", SOLVE_OPTIONS, sizing_mode="stretch_width")
+        self.solve_for = Choice(s, "solve_for", SOLVE_OPTIONS, select=True, label="",
+                                sizing_mode="stretch_width")
         note = {"margin": (6, 10, 0, 10)}
         self.body = pn.Column(
             _bold("Idle gear", **note), self.fields["inertia"], self.fields["radius"],

@@ -30,7 +30,7 @@ def compute(view):
 def image(view, field=None):
     if field is not None:
         view.settings.field = field
-    return view._image(field=view.settings.field).dimension_values(2, flat=False)
+    return view._image().dimension_values(2, flat=False)
 
 
 def test_regime_image_equals_regime_map(dash):
@@ -57,12 +57,14 @@ def test_each_field_has_its_own_colours_and_the_csv_has_every_cell(dash):
     view = dash.maps
     small(view, 4, 3)
     r = compute(view)
-    el = view._image(field="intensity")
+    view.settings.field = "intensity"
+    el = view._image()
     opts = el.opts.get().kwargs
     assert opts["cmap"] == "magma" and opts["logz"] and opts["colorbar"]
     inten = r.fields["intensity"]
     assert opts["clim"][1] == pytest.approx(np.nanmax(inten[inten > 0]))
-    reg = view._image(field="regime").opts.get().kwargs
+    view.settings.field = "regime"
+    reg = view._image().opts.get().kwargs
     assert reg["cmap"][:2] == ["#9e9e9e", "#ff9800"] and not reg["colorbar"]
     df = pd.read_csv(view._csv())
     assert len(df) == 12 and list(df.columns[:3]) == ["lam", "phi2", "regime"]
