@@ -331,13 +331,12 @@ _pool: JobPool | None = None
 _pool_lock = threading.Lock()
 
 
-def pool(size: int = 2) -> JobPool:
-    """The server's job pool (started on first use; its workers load the compiled kernels)."""
+def pool(size: int = 2, warm: Callable[[], Any] | None = None) -> JobPool:
+    """The server's job pool, started on first use (``warm`` runs in each worker first)."""
     global _pool
     with _pool_lock:
         if _pool is None:
-            from .work import warm_up
-            _pool = JobPool(size=size, warm=warm_up)
+            _pool = JobPool(size=size, warm=warm)
         return _pool
 
 

@@ -32,7 +32,7 @@ import panel as pn
 if __package__ in (None, ""):  # run as a script by `panel serve app/main.py`
     sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from app import jobs, maps_view  # noqa: E402
+from app import jobs, maps_view, work  # noqa: E402
 from app.dashboard import Dashboard  # noqa: E402
 
 log = logging.getLogger("app")
@@ -107,7 +107,7 @@ def warm_up(pool: bool = True) -> None:
         dynspread(datashade(pts, dynamic=False, width=50, height=50), dynamic=False)
         _assets()
         if pool:
-            jobs.pool()
+            jobs.pool(warm=work.warm_up)  # the workers load the compiled kernels before a job
         _warm = True
 
 

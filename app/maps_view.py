@@ -29,7 +29,7 @@ import param
 from . import work
 from .core import REGIME_CODES, excitation, paper_phi2_to_core, plan_map
 from .state import ExplorerState, Said
-from .labels import REGIME_COLOR, REGIME_MEANING, MARK_COLOR, text_html
+from .labels import REGIME_COLOR, map_legend, text_html
 from .plots import TOOLS, file_stem
 from .widgets import Choice, Field, later, message
 
@@ -358,7 +358,7 @@ class MapsView(pn.viewable.Viewer):
         if stale:
             text += " For other parameters than the current ones: press Compute to update."
         self.status.object = text_html(text)
-        self.legend.object = _legend(r)
+        self.legend.object = map_legend(r)
 
     # ----- clicks -------------------------------------------------------------------------------
 
@@ -398,20 +398,3 @@ def _key(params: Any, plan: tuple) -> str:
     elif plan[0] == "flat":
         params = params.with_value(plan[1], 1.0)
     return repr(params.canonical())
-
-
-def _legend(r: Any) -> str:
-    """The regimes (or attractors) of a map with their colours and counts (no user text)."""
-    def swatch(colour: str) -> str:
-        return (f"<span style='display:inline-block;width:14px;height:14px;background:{colour};"
-                "border:1px solid #555;margin-right:6px;vertical-align:middle'></span>")
-    if r.kind == "basin":
-        from bokeh.palettes import Category20
-        rows = [f"<div class='map-attractor' data-regime='{a['regime']}'>{swatch(Category20[20][i % 20])}"
-                f"<b>{i}</b>: regime {a['regime']}{', period ' + str(a['period']) if a['period'] else ''}, "
-                f"{100 * a['share']:.1f} %</div>" for i, a in enumerate(r.attractors[:40])]
-        return "<div><b>Attractors</b> (regime, period, share of the grid)</div>" + "".join(rows)
-    reg = np.asarray(r.fields["regime"])
-    rows = [f"<div class='map-regime' data-regime='{k}'>{swatch(REGIME_COLOR[k])}<b>{k}</b> "
-            f"{REGIME_MEANING[k]} ({int((reg == c).sum())})</div>" for k, c in REGIME_CODES.items()]
-    return "<div><b>Regimes</b> (points)</div>" + "".join(rows)

@@ -5,7 +5,6 @@ the messages against the limits they state; clicks against the session's state.
 """
 from __future__ import annotations
 
-import io
 
 import numpy as np
 import pandas as pd

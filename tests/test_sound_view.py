@@ -18,7 +18,6 @@ from app import sound_view
 from rattle_core.excitation import TWO_PI
 from rattle_core.sound import (DEFAULT_EXCITATION_HZ, DEFAULT_TAIL, PEAK, parse_modes, synthesize,
                                to_int16)
-from rattle_core.units import PhysicalParams
 
 HARMONIC = {"h2": 0.0, "phi2": 0.0, "harmonics": ""}
 
