@@ -84,6 +84,7 @@ class MapsView(pn.viewable.Viewer):
         super().__init__(**params)
         self.settings = m = MapSettings()
         self.result: Any = None
+        self.job: Any = None
         self._request: dict | None = None
         self._figure = lambda: None
         self._generation = 0
@@ -233,16 +234,16 @@ class MapsView(pn.viewable.Viewer):
                                        f"= {n} points {where}…")
         args = (req["params"], req["phys"], req["x_name"], req["core"]["x"], req["y_name"],
                 req["core"]["y"], req["transient"], req["record"], _scheduler)
-        self._job = self.jobs.submit("map", work.regime_map, args, time_limit=300.0,
+        self.job = self.jobs.submit("map", work.regime_map, args, time_limit=300.0,
                                      on_progress=lambda f: self._progress(req, f),
                                      on_done=lambda r: self._done(req, r),
                                      on_error=lambda msg: self._error(req, msg))
         return True
 
     def cancel(self, text: str | None = None) -> None:
-        if getattr(self, "_job", None) is not None:
-            self._job.cancel()
-            self._job = None
+        if self.job is not None:
+            self.job.cancel()
+            self.job = None
         self._request = None
         self.progress.visible = False
         self.cancel_button.disabled = True
@@ -262,7 +263,7 @@ class MapsView(pn.viewable.Viewer):
     def _done(self, req: dict, result: Any) -> None:
         if req is not self._request:
             return
-        self._job = None
+        self.job = None
         self.progress.visible = False
         self.cancel_button.disabled = True
         result.x_values, result.y_values = req["x_values"], req["y_values"]
@@ -294,6 +295,10 @@ class MapsView(pn.viewable.Viewer):
                 me._figure = weakref.ref(plot.state)
         return (self.image * self.marker).opts(
             hv.opts.Overlay(width=640, height=520, hooks=[name_plot]))
+
+    def image_element(self, revision: int = 0) -> hv.Image:
+        """The map as the page draws it, for the field shown."""
+        return self._image(revision)
 
     def _image(self, revision: int = 0) -> hv.Image:
         r, field = self.result, self.settings.field
@@ -382,6 +387,10 @@ class MapsView(pn.viewable.Viewer):
             s.clear("map-run")
         except ValueError as exc:
             s.say("map-run", f"{exc}")
+
+    def csv(self) -> io.StringIO:
+        """The map as the CSV the page offers."""
+        return self._csv()
 
     def _csv(self) -> io.StringIO:
         return io.StringIO("" if self.result is None else self.result.table().to_csv(index=False))
