@@ -25,6 +25,7 @@ import collections
 import itertools
 import logging
 import multiprocessing as mp
+import multiprocessing.util  # noqa: F401  (its exit handler first, so ours runs before it)
 import threading
 import time
 import weakref

@@ -28,9 +28,9 @@ import param
 
 from . import work
 from .core import REGIME_CODES, excitation, paper_phi2_to_core, plan_map
-from .state import ExplorerState, Said
+from .state import ExplorerState, MapSettings
 from .labels import REGIME_COLOR, map_legend, text_html
-from .plots import TOOLS, file_stem
+from .plots import TOOLS, caption, file_stem, save_as
 from .widgets import Choice, Field, later, message
 
 AXES = {"lam": "Λ", "r": "r", "j": "j", "h2": "H₂/H₁", "phi2": "φ₂ [°]",
@@ -56,23 +56,6 @@ def scheduler() -> str:
     return _scheduler
 
 
-class MapSettings(Said):
-    """What map to compute, with the allowed ranges."""
-
-    kind = param.Selector(default="regime", objects=["regime", "basin"])
-    x_axis = param.Selector(default="lam", objects=[*AXES, "x0", "v0"], label="x axis")
-    y_axis = param.Selector(default="phi2", objects=[*AXES, "x0", "v0"], label="y axis")
-    x_start = param.Number(0.5, label="x from")
-    x_stop = param.Number(4.0, label="x to")
-    x_num = param.Integer(60, bounds=(2, 400), label="x points")
-    y_start = param.Number(0.0, label="y from")
-    y_stop = param.Number(360.0, label="y to")
-    y_num = param.Integer(60, bounds=(2, 400), label="y points")
-    transient = param.Integer(200, bounds=(0, 100_000), label="transient periods")
-    record = param.Integer(60, bounds=(1, 10_000), label="recorded periods")
-    field = param.Selector(default="regime", objects=[*FIELDS, "attractor"], label="shown")
-
-
 class MapsView(pn.viewable.Viewer):
     """The Maps tab of one session."""
 
@@ -88,6 +71,7 @@ class MapsView(pn.viewable.Viewer):
         self._request: dict | None = None
         self._figure = lambda: None
         self._generation = 0
+        self._stem = "rattle_map"
         m.param.watch(self._on_axis, ["x_axis", "y_axis"])
         m.param.watch(self._on_kind, "kind")
         self.state.param.watch(self._on_units, "units")
@@ -216,7 +200,7 @@ class MapsView(pn.viewable.Viewer):
             s.say("map-y" if text.startswith("y axis") else "map-x" if text.startswith("x axis")
                   else "map-run", text)
             return None
-        return {"params": run.params, "phys": run.phys, "x_name": m.x_axis, "y_name": m.y_axis,
+        return {"run": run, "params": run.params, "phys": run.phys, "x_name": m.x_axis, "y_name": m.y_axis,
                 "x_values": xv, "y_values": yv, "core": core, "plan": plan,
                 "transient": m.transient, "record": m.record, "key": _key(run.params, plan)}
 
@@ -292,7 +276,9 @@ class MapsView(pn.viewable.Viewer):
             me = ref()
             if me is not None and me._generation == generation:
                 plot.state.name = "map_figure"
+                plot.state.title.text_font_size = "9pt"
                 me._figure = weakref.ref(plot.state)
+                save_as(lambda: me._stem)(plot, element)
         return (self.image * self.marker).opts(
             hv.opts.Overlay(width=640, height=520, hooks=[name_plot]))
 
@@ -318,8 +304,11 @@ class MapsView(pn.viewable.Viewer):
                         f["period"], f["intensity"], f["lyapunov"]),
                        [hv.Dimension("x", label=AXES.get(r.x_name, r.x_name)),
                         hv.Dimension("y", label=AXES.get(r.y_name, r.y_name))], vd)
-        opts = {"clipping_colors": {"NaN": (0, 0, 0, 0)}, "tools": [*TOOLS, "tap", "hover"], "framewise": True,
-                "title": f"{FIELDS.get(field, 'attractor reached')} · {'basins' if r.kind == 'basin' else 'regime map'}"}
+        run = self._shown["run"]
+        self._stem = file_stem(run, f"map-{r.x_name}-{r.y_name}-{field}")
+        title = f"{FIELDS.get(field, 'attractor reached')} · {caption(run)}"
+        opts = {"clipping_colors": {"NaN": (0, 0, 0, 0)}, "tools": [*TOOLS, "tap", "hover"],
+                "framewise": True, "title": title}
         if field == "regime":
             opts.update(cmap=[REGIME_COLOR[k] for k in REGIME_CODES], clim=(-0.5, len(REGIME_CODES) - 0.5),
                         colorbar=False, logz=False)
