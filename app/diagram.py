@@ -33,7 +33,7 @@ from . import work
 from .diagram_data import (RECORD, TRANSIENT, ZOOM_VALUES, Diagram, current_value, diagram_key,
                            from_work, marks, one_sided, request, shipped)
 from .labels import ACTIVE_COLOR, CHAOS_COLOR, MARK_COLOR, ONSET_COLOR, REVERSE_COLOR, num
-from .plots import TOOLS, Zoom, caption, file_stem, padded, save_as, weak_hook
+from .plots import TOOLS, HoloViewsPane, Zoom, caption, file_stem, padded, save_as, weak_hook
 from .state import ExplorerState
 from .widgets import Choice, deferred, later, message, set_value
 
@@ -86,7 +86,7 @@ class DiagramView(pn.viewable.Viewer):
         plot = (self.points * self.marks).opts(
             hv.opts.Overlay(responsive=True, height=380, hooks=[weak_hook(self._name_plot)]),
             hv.opts.RGB(tools=[*TOOLS, "tap"], active_tools=["wheel_zoom"]))
-        self.pane = pn.pane.HoloViews(plot, sizing_mode="stretch_width", min_height=380,
+        self.pane = HoloViewsPane(plot, sizing_mode="stretch_width", min_height=380,
                                       css_classes=["diagram"], linked_axes=False)
         s.param.watch(self._update, ["result", "bif", "phases"])
         s.param.watch(self._move_marker, "result")

@@ -22,8 +22,8 @@ from holoviews.operation.datashader import datashade, dynspread
 
 from .core import excitation
 from .labels import MARK_COLOR, badge_html, metrics_rows, table_html
-from .plots import (TOOLS, Zoom, caption, file_stem, padded, save_as, section_points,
-                    weak_hook)
+from .plots import (TOOLS, HoloViewsPane, Zoom, caption, file_stem, padded, save_as,
+                    section_points, weak_hook)
 from .state import ExplorerState
 from .widgets import Choice, deferred, later, message
 
@@ -67,7 +67,7 @@ class SectionView(pn.viewable.Viewer):
             hv.opts.Points(tools=[*TOOLS, "tap"], active_tools=["wheel_zoom"]))
         self.mode = Choice(self.state, "section", SECTION_OPTIONS, sizing_mode="stretch_width")
         self.msg = message(self.state, "start")
-        self.pane = pn.pane.HoloViews(plot, sizing_mode="stretch_width", min_height=380,
+        self.pane = HoloViewsPane(plot, sizing_mode="stretch_width", min_height=380,
                                       css_classes=["section"], linked_axes=False)
         self.state.param.watch(self._update, ["result", "section"])
         self._update()

@@ -30,7 +30,7 @@ from . import work
 from .core import REGIME_CODES, excitation, paper_phi2_to_core, plan_map
 from .state import ExplorerState, MapSettings
 from .labels import REGIME_COLOR, map_legend, text_html
-from .plots import TOOLS, caption, file_stem, save_as
+from .plots import HV_LOCK, TOOLS, HoloViewsPane, caption, file_stem, save_as
 from .widgets import Choice, Field, later, message
 
 AXES = {"lam": "Λ", "r": "r", "j": "j", "h2": "H₂/H₁", "phi2": "φ₂ [°]",
@@ -90,7 +90,7 @@ class MapsView(pn.viewable.Viewer):
         self.download = pn.widgets.FileDownload(callback=self._csv, filename="map.csv", label="Map as CSV",
                                                 color="success", disabled=True,
                                                 css_classes=["map-download"], sizing_mode="stretch_width")
-        self.pane = pn.pane.HoloViews(self._plot(), css_classes=["map-plot"])
+        self.pane = HoloViewsPane(self._plot(), css_classes=["map-plot"])
         # a new colour scale (regimes, log intensity, linear) needs a plot of its own
         m.param.watch(lambda e: setattr(self.pane, "object", self._plot()), "field")
         self._choices = {n: Choice(m, n, {_axis_label(a): a for a in self._axes()}, select=True,
@@ -260,6 +260,10 @@ class MapsView(pn.viewable.Viewer):
 
     def _plot(self) -> Any:
         """The map and the current point, with a click stream (one per colour scale)."""
+        with HV_LOCK:
+            return self._build_plot()
+
+    def _build_plot(self) -> Any:
         self.image = hv.DynamicMap(self._image, streams=[hv.streams.Params(self, ["revision"])])
         self.marker = hv.DynamicMap(self._marker, streams=[hv.streams.Params(self.state, ["result"]),
                                                            hv.streams.Params(self, ["revision"])])

@@ -12,11 +12,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import threading
 import weakref
 from typing import Any, Callable
 
 import holoviews as hv
 import numpy as np
+import panel as pn
 
 from .core import TWO_PI
 from .state import display_phases
@@ -66,6 +68,25 @@ def save_as(get_stem: Callable[[], str]) -> Callable:
             if isinstance(tool, SaveTool) and tool.filename != stem:
                 tool.filename = stem
     return hook
+
+
+#: Held while HoloViews builds streams or plots. Bokeh applies each session's browser events
+#: in a worker thread, so two sessions can build plots at once, and HoloViews walks its
+#: process-wide stream registry while building a plot: a stream added meanwhile by another
+#: session breaks that walk ("dictionary changed size during iteration").
+HV_LOCK = threading.RLock()
+
+
+class HoloViewsPane(pn.pane.HoloViews):
+    """``pn.pane.HoloViews`` whose plots are built under :data:`HV_LOCK`."""
+
+    def _get_model(self, *args: Any, **kwargs: Any) -> Any:
+        with HV_LOCK:
+            return super()._get_model(*args, **kwargs)
+
+    def _update_object(self, *args: Any, **kwargs: Any) -> Any:
+        with HV_LOCK:
+            return super()._update_object(*args, **kwargs)
 
 
 def weak_hook(method: Callable) -> Callable:
