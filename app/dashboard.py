@@ -16,7 +16,7 @@ from .controls import Controls
 from .diagram import DiagramView
 from .explorer import RegimeView, SectionView
 from .maps_view import MapsView
-from .plots import HV_LOCK
+from .threads import HV_LOCK
 from .session import Session
 from .sound_view import SoundView
 from .time_history import TimeHistoryView

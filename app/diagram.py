@@ -35,7 +35,8 @@ from .diagram_data import (RECORD, TRANSIENT, ZOOM_VALUES, Diagram, current_valu
 from .labels import ACTIVE_COLOR, CHAOS_COLOR, MARK_COLOR, ONSET_COLOR, REVERSE_COLOR, num
 from .plots import TOOLS, HoloViewsPane, Zoom, caption, file_stem, padded, save_as, weak_hook
 from .state import ExplorerState
-from .widgets import Choice, deferred, later, message, set_value
+from .threads import later
+from .widgets import Choice, deferred, message, set_value
 
 OPTIONS = {"Ĩ vs Λ": "lam", "Ĩ vs φ₂": "phi2"}
 UNITS_OPTIONS = {"I vs engine speed": "rpm", "Ĩ vs φ₂": "phi2"}

@@ -25,7 +25,8 @@ from .labels import MARK_COLOR, badge_html, metrics_rows, table_html
 from .plots import (TOOLS, HoloViewsPane, Zoom, caption, file_stem, padded, save_as,
                     section_points, weak_hook)
 from .state import ExplorerState
-from .widgets import Choice, deferred, later, message
+from .threads import later
+from .widgets import Choice, deferred, message
 
 SECTION_OPTIONS = {"Poincaré (x, ẋ)": "absolute", "relative (x−y, ẋ−ẏ)": "relative",
                    "impact map": "impact"}

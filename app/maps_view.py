@@ -29,9 +29,10 @@ import param
 from . import work
 from .core import REGIME_CODES, excitation, paper_phi2_to_core, plan_map
 from .state import ExplorerState, MapSettings
+from .threads import HV_LOCK, later
 from .labels import REGIME_COLOR, map_legend, text_html
-from .plots import HV_LOCK, TOOLS, HoloViewsPane, caption, file_stem, save_as
-from .widgets import Choice, Field, later, message
+from .plots import TOOLS, HoloViewsPane, caption, file_stem, save_as
+from .widgets import Choice, Field, message
 
 AXES = {"lam": "Λ", "r": "r", "j": "j", "h2": "H₂/H₁", "phi2": "φ₂ [°]",
         "rpm": "engine speed [rpm]", "drag_torque": "drag torque C [N·m]"}

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import threading
 import weakref
 from typing import Any, Callable
 
@@ -23,6 +22,7 @@ import panel as pn
 from .core import TWO_PI
 from .state import display_phases
 from .labels import num
+from .threads import HV_LOCK, later
 
 #: Samples per forcing period of the time history (impact instants are added exactly).
 POINTS_PER_PERIOD = 160
@@ -68,13 +68,6 @@ def save_as(get_stem: Callable[[], str]) -> Callable:
             if isinstance(tool, SaveTool) and tool.filename != stem:
                 tool.filename = stem
     return hook
-
-
-#: Held while HoloViews builds streams or plots. Bokeh applies each session's browser events
-#: in a worker thread, so two sessions can build plots at once, and HoloViews walks its
-#: process-wide stream registry while building a plot: a stream added meanwhile by another
-#: session breaks that walk ("dictionary changed size during iteration").
-HV_LOCK = threading.RLock()
 
 
 class HoloViewsPane(pn.pane.HoloViews):
@@ -153,7 +146,6 @@ class Zoom:
         if resetting and self.user:
             self.user = False
             if self._on_reset is not None:
-                from .widgets import later
                 later(self._on_reset)
 
 
