@@ -17,6 +17,7 @@ from .controls import Controls
 from .diagram import DiagramView
 from .explorer import RegimeView, SectionView
 from .maps_view import MapsView
+from .threads import HV_LOCK
 from .session import Session
 from .sound_view import SoundView
 from .time_history import TimeHistoryView
@@ -32,6 +33,11 @@ class Dashboard:
     """Everything one browser session sees (build it with :func:`app.main.create_app`)."""
 
     def __init__(self, location: Any = None, doc: Any = None, pool: Any = None):
+        with HV_LOCK:  # the views build HoloViews streams
+            self._build(location, doc, pool)
+        LIVE.add(self)
+
+    def _build(self, location: Any, doc: Any, pool: Any) -> None:
         self.session = Session(location=location, doc=doc, pool=pool)
         s = self.state = self.session.state
         jobs = self.session.jobs
@@ -59,7 +65,6 @@ class Dashboard:
             sidebar=[self.controls, self.units], sidebar_width=SIDEBAR_WIDTH,
             main=[message(s, "url"), message(s, "global"), self.tabs],
             header_background="#2c3e50")
-        LIVE.add(self)
 
     def destroy(self) -> None:
         """The session closed: cancel its work and let go of its results."""

@@ -9,9 +9,15 @@ value are on the plot, marked and labelled. Impacts are shaded by flank with dat
 (``datashade`` and ``dynspread``); a zoom recomputes the visible region finer (a ``RangeXY``
 stream), and a click (a ``Tap`` stream) sets the swept parameter. In physical units the
 diagram runs against engine speed and shows impulses in N·s.
+
+The current-value marker is the one hand-written Bokeh piece here: a ``Span`` added to the
+HoloViews figure, whose location each run sets. As a layer of the HoloViews overlay it cost a
+redraw of the whole overlay (about 30 ms of server CPU: range computation over the raster and
+option handling), a fifth of the slider budget, to move one line.
 """
 from __future__ import annotations
 
+import weakref
 from typing import Any
 
 import datashader as ds
@@ -20,16 +26,18 @@ import numpy as np
 import pandas as pd
 import panel as pn
 import param
+from bokeh.models import Span
 from holoviews.operation.datashader import datashade, dynspread
 
 from . import work
 from .diagram_data import (RECORD, TRANSIENT, ZOOM_VALUES, Diagram, current_value, diagram_key,
                            from_work, marks, one_sided, request, shipped)
 from .continuation_view import branch_overlay
-from .state import ExplorerState
 from .labels import ACTIVE_COLOR, CHAOS_COLOR, MARK_COLOR, ONSET_COLOR, REVERSE_COLOR, num
-from .plots import TOOLS, Zoom, weak_hook, caption, file_stem, padded, save_as
-from .widgets import Choice, deferred, later, message, set_value
+from .plots import TOOLS, HoloViewsPane, Zoom, caption, file_stem, padded, save_as, weak_hook
+from .state import ExplorerState
+from .threads import later
+from .widgets import Choice, deferred, message, set_value
 
 OPTIONS = {"Ĩ vs Λ": "lam", "Ĩ vs φ₂": "phi2"}
 UNITS_OPTIONS = {"I vs engine speed": "rpm", "Ĩ vs φ₂": "phi2"}
@@ -52,7 +60,7 @@ class DiagramView(pn.viewable.Viewer):
         self.diagram: Diagram | None = None
         self._key: tuple | None = None
         self._name = "lam"
-        self._span = (0.5, 4.0)
+        self._span_x = (0.5, 4.0)
         self._stem = "rattle_diagram"
         self._title = "Bifurcation diagram"
         self._timer = None
@@ -66,9 +74,9 @@ class DiagramView(pn.viewable.Viewer):
         hv.streams.PlotReset(source=self.points).add_subscriber(self.zoom._reset)
         self.marks = hv.DynamicMap(self._marks, streams=[
             hv.streams.Params(self.state, ["overlays"]), hv.streams.Params(self, ["marks_revision"])])
-        self.marker = hv.DynamicMap(self._marker, streams=[hv.streams.Params(self.state, ["result"])])
         self.branch = hv.DynamicMap(self._branch, streams=[
             hv.streams.Params(self.state, ["branch"]), hv.streams.Params(self, ["marks_revision"])])
+        self._span: Any = lambda: None
         self.tap = hv.streams.Tap(source=self.points)
         self.tap.add_subscriber(self._on_tap)
         s = self.state
@@ -79,12 +87,13 @@ class DiagramView(pn.viewable.Viewer):
                                                css_classes=["bif-progress"])
         self.status = pn.pane.HTML("", css_classes=["bif-status"], margin=(0, 10),
                                    sizing_mode="stretch_width")
-        plot = (self.points * self.marks * self.branch * self.marker).opts(
+        plot = (self.points * self.marks * self.branch).opts(
             hv.opts.Overlay(responsive=True, height=380, hooks=[weak_hook(self._name_plot)]),
             hv.opts.RGB(tools=[*TOOLS, "tap"], active_tools=["wheel_zoom"]))
-        self.pane = pn.pane.HoloViews(plot, sizing_mode="stretch_width", min_height=380,
+        self.pane = HoloViewsPane(plot, sizing_mode="stretch_width", min_height=380,
                                       css_classes=["diagram"], linked_axes=False)
         s.param.watch(self._update, ["result", "bif", "phases"])
+        s.param.watch(self._move_marker, "result")
         s.param.watch(self._on_units, "units")
         if s.units and s.bif == "lam":  # in physical units Λ runs as engine speed
             s.bif = "rpm"
@@ -109,7 +118,7 @@ class DiagramView(pn.viewable.Viewer):
         name = self.swept()
         key = diagram_key(name, self.state.phases, run.params, run.phys)
         value = current_value(name, self.state)
-        lo, hi = self._span
+        lo, hi = self._span_x
         if key == self._key and lo <= value <= hi:
             if name == "phi2" and self._lam != run.params.lam:  # the 2πn/Λ lines move with Λ
                 self._lam = run.params.lam
@@ -122,7 +131,7 @@ class DiagramView(pn.viewable.Viewer):
         self._title = f"Bifurcation diagram · {caption(run)}"
         self._stem = file_stem(run, f"diagram-{name}")
         req = request(name, self.state, run)
-        self._span = (min(req.axis), max(req.axis))
+        self._span_x = (min(req.axis), max(req.axis))
         self._start(req, merge=False)
 
     def _start(self, req: Any, merge: bool) -> None:
@@ -174,6 +183,21 @@ class DiagramView(pn.viewable.Viewer):
 
     # ----- elements -----------------------------------------------------------------------------
 
+    @property
+    def span(self) -> tuple[float, float]:
+        """The x-range of the diagram asked for (axis units)."""
+        return self._span_x
+
+    @property
+    def marker(self) -> float | None:
+        """Where the current-value marker stands on the page (None before the plot is drawn)."""
+        span = self._span()
+        return None if span is None else span.location
+
+    def axes(self) -> tuple[str, str]:
+        """The axis labels of the diagram shown."""
+        return self._axis()
+
     def _axis(self) -> tuple[str, str]:
         name = self._name
         x = AXES["phi2-" + self.state.phases] if name == "phi2" else AXES[name]
@@ -183,7 +207,7 @@ class DiagramView(pn.viewable.Viewer):
     def _limits(self) -> tuple[tuple[float, float], tuple[float, float]]:
         d = self.diagram
         y = padded(d.impulse) if d is not None and d.impulse.size else (-10.0, 10.0)
-        return self._span, y
+        return self._span_x, y
 
     def _points(self, revision: int = 0, x_range: Any = None, y_range: Any = None) -> hv.RGB:
         xlim, ylim = self._limits()
@@ -206,10 +230,14 @@ class DiagramView(pn.viewable.Viewer):
                         max_px=2, threshold=0.5, dynamic=False)
         return self.zoom.apply(rgb, xlim, ylim)
 
-    def _marker(self, result: Any = None) -> hv.VLine:
-        """The current value of the swept parameter."""
-        value = current_value(self._name, self.state) if result is not None else self._span[0]
-        return self.zoom.apply(hv.VLine(value).opts(color=MARK_COLOR, line_width=2), *self._limits())
+    def _marker_at(self) -> float:
+        return current_value(self._name, self.state) if self.state.result is not None else self._span_x[0]
+
+    def _move_marker(self, *_: Any) -> None:
+        """The current value moves with every run: one Bokeh property, not a HoloViews redraw."""
+        span = self._span()
+        if span is not None:
+            span.location = self._marker_at()
 
     def _marks(self, overlays: bool = True, marks_revision: int = 0) -> hv.Overlay:
         """Where rattle starts and chaos first appears (labelled), and the 2πn/Λ curves."""
@@ -218,22 +246,23 @@ class DiagramView(pn.viewable.Viewer):
         name = self._name
         kdims = [hv.Dimension("x"), hv.Dimension("y")]
         m = marks(name, result, self.diagram) if result is not None else {"onset": None, "chaos": None}
-        top = ylim[1] - 0.04 * (ylim[1] - ylim[0])
-        layers = []
-        for key, color, dash, text in (("onset", ONSET_COLOR, "dashed", "rattle starts (Λ_c)"),
-                                       ("chaos", CHAOS_COLOR, "dotted", "first chaos")):
+        span = ylim[1] - ylim[0]
+        lines, labels = [], []
+        for key, color, text, y in (("onset", ONSET_COLOR, "rattle starts (Λ_c)", ylim[1] - 0.04 * span),
+                                    ("chaos", CHAOS_COLOR, "first chaos", ylim[1] - 0.12 * span)):
             x = m[key]
-            shown = x is not None and (overlays or key == "chaos")
-            xx = x if shown else xlim[0]
-            label = f"{text}: {num(x, 4)}" if shown else ""
-            layers.append(hv.VLine(xx).opts(color=color, line_width=2, line_dash=dash,
-                                            alpha=1.0 if shown else 0.0))
-            layers.append(hv.Text(xx, top if key == "onset" else top - 0.08 * (ylim[1] - ylim[0]),
-                                  f" {label}", halign="left", fontsize=9).opts(color=color))
+            if x is not None and (overlays or key == "chaos"):
+                lines.append((x, ylim[0], x, ylim[1], color))
+                labels.append((x, y, f" {text}: {num(x, 4)}", color))
+        # the marks are segments and labels (one glyph each), so a redraw stays cheap
+        segs = hv.Segments(lines, kdims + ["x1", "y1"], ["color"]).opts(
+            color="color", line_width=2, line_dash="dashed")
+        text = hv.Labels(labels, kdims, ["text", "color"]).opts(
+            text_color="color", text_align="left", text_font_size="9pt")
         curves = one_sided(name, result, *xlim) if (overlays and result is not None) else []
-        layers.append(hv.Path(curves or [np.empty((0, 2))], kdims).opts(
-            color="#27ae60", line_width=1.5, line_dash="dotted"))
-        return self.zoom.apply(hv.Overlay(layers), xlim, ylim)
+        paths = hv.Path(curves or [np.empty((0, 2))], kdims).opts(
+            color="#27ae60", line_width=1.5, line_dash="dotted")
+        return self.zoom.apply(segs * text * paths, xlim, ylim)
 
     def _branch(self, branch: Any = None, marks_revision: int = 0) -> hv.Overlay:
         """The continued branch (``state.branch``), drawn by :mod:`app.continuation_view`."""
@@ -242,6 +271,11 @@ class DiagramView(pn.viewable.Viewer):
     def _name_plot(self, plot: Any, element: Any) -> None:
         """Title (the parameters, so a saved PNG carries them) and the save tool's file name."""
         plot.state.name = "bifurcation"
+        if self._span() is None or self._span() not in plot.state.center:
+            span = Span(location=self._marker_at(), dimension="height", line_color=MARK_COLOR,
+                        line_width=2, name="current_value")
+            plot.state.add_layout(span)
+            self._span = weakref.ref(span)
         if plot.state.title.text != self._title:
             plot.state.title.text = self._title
             plot.state.title.text_font_size = "9pt"
@@ -250,7 +284,6 @@ class DiagramView(pn.viewable.Viewer):
     def _redraw(self) -> None:
         self.revision += 1
         self.marks_revision += 1
-        self.marker.event()
 
     # ----- interaction --------------------------------------------------------------------------
 

@@ -21,10 +21,12 @@ import param
 from holoviews.operation.datashader import datashade, dynspread
 
 from .core import excitation
-from .state import ExplorerState
 from .labels import MARK_COLOR, badge_html, metrics_rows, table_html
-from .plots import TOOLS, Zoom, weak_hook, caption, file_stem, padded, save_as, section_points
-from .widgets import Choice, deferred, later, message
+from .plots import (TOOLS, HoloViewsPane, Zoom, caption, file_stem, padded, save_as,
+                    section_points, weak_hook)
+from .state import ExplorerState
+from .threads import later
+from .widgets import Choice, deferred, message
 
 SECTION_OPTIONS = {"Poincaré (x, ẋ)": "absolute", "relative (x−y, ẋ−ẏ)": "relative",
                    "impact map": "impact"}
@@ -36,9 +38,9 @@ DENSE = 5000
 class SectionView(pn.viewable.Viewer):
     """Poincaré (absolute or relative) or impact map; a click starts the gear at that point.
 
-    Three layers: the points as glyphs (up to :data:`DENSE` of them), a datashader raster of
-    denser clouds (re-rasterised at the range shown after a zoom), and the start point.
-    Each is a ``DynamicMap`` of its own, redrawn only when its own data change.
+    Three layers: a datashader raster of dense clouds (re-rasterised at the range shown after
+    a zoom), the points as glyphs (up to :data:`DENSE` of them) and the start point. The raster
+    is a ``DynamicMap`` of its own, redrawn only when a dense cloud changes or the view zooms.
     """
 
     state = param.ClassSelector(class_=ExplorerState)
@@ -57,18 +59,16 @@ class SectionView(pn.viewable.Viewer):
         self.sparse = hv.DynamicMap(self._sparse, streams=[hv.streams.Params(self, ["revision"])])
         self.dense = hv.DynamicMap(self._raster, streams=[hv.streams.Params(self, ["dense_revision"]),
                                                           self.range])
-        self.start = hv.DynamicMap(self._start, streams=[
-            hv.streams.Params(self.state, ["x0", "v0", "t0"]), hv.streams.Params(self, ["revision"])])
         self.range.add_subscriber(self.zoom._ranged, precedence=-1)
         hv.streams.PlotReset(source=self.sparse).add_subscriber(self.zoom._reset)
         self.tap = hv.streams.Tap(source=self.sparse)
         self.tap.add_subscriber(self._on_tap)
-        plot = (self.dense * self.sparse * self.start).opts(
+        plot = (self.dense * self.sparse).opts(
             hv.opts.Overlay(responsive=True, height=380, hooks=[weak_hook(self._name_plot)]),
             hv.opts.Points(tools=[*TOOLS, "tap"], active_tools=["wheel_zoom"]))
         self.mode = Choice(self.state, "section", SECTION_OPTIONS, sizing_mode="stretch_width")
         self.msg = message(self.state, "start")
-        self.pane = pn.pane.HoloViews(plot, sizing_mode="stretch_width", min_height=380,
+        self.pane = HoloViewsPane(plot, sizing_mode="stretch_width", min_height=380,
                                       css_classes=["section"], linked_axes=False)
         self.state.param.watch(self._update, ["result", "section"])
         self._update()
@@ -76,6 +76,11 @@ class SectionView(pn.viewable.Viewer):
     def __panel__(self):
         # drawn once the page has loaded, so the first plot (the time history) comes sooner
         return pn.Column(self.mode, self.msg, deferred(self.pane), sizing_mode="stretch_width")
+
+    @property
+    def points(self) -> tuple[np.ndarray, np.ndarray]:
+        """The section's points as drawn (glyphs, or the raster's cloud)."""
+        return self._dense if self._dense is not None else self._xy
 
     def _update(self, *_: Any) -> None:
         run = self.state.result
@@ -102,9 +107,14 @@ class SectionView(pn.viewable.Viewer):
         self.revision += 1
         self.dense_revision += 1
 
-    def _sparse(self, revision: int = 0) -> hv.Points:
-        return self.zoom.apply(hv.Points(self._xy, self._kdims).opts(size=4, color="#1f5fa8", alpha=0.8),
-                               *self._lims)
+    def _sparse(self, revision: int = 0) -> hv.Overlay:
+        """The points as glyphs, and the start point (both follow every run)."""
+        s, run = self.state, self.state.result
+        point = None if run is None else self._start_point(run, s.section, s.x0, s.v0, s.t0)
+        marker = hv.Points([point] if point else [], self._kdims).opts(
+            marker="x", size=14, line_width=3, color=MARK_COLOR)
+        cloud = hv.Points(self._xy, self._kdims).opts(size=4, color="#1f5fa8", alpha=0.8)
+        return self.zoom.apply(cloud * marker, *self._lims)
 
     def _raster(self, dense_revision: int = 0, x_range: Any = None, y_range: Any = None) -> hv.RGB:
         xr, yr = self._lims
@@ -117,13 +127,6 @@ class SectionView(pn.viewable.Viewer):
                                   width=w, height=h, dynamic=False),
                         max_px=2, threshold=0.6, dynamic=False)
         return self.zoom.apply(rgb, *self._lims)
-
-    def _start(self, x0: Any = None, v0: float = 0.0, t0: float = 0.0, revision: int = 0) -> hv.Points:
-        run = self.state.result
-        point = None if run is None else self._start_point(run, self.state.section, x0, v0, t0)
-        marker = hv.Points([point] if point else [], self._kdims).opts(
-            marker="x", size=14, line_width=3, color=MARK_COLOR)
-        return self.zoom.apply(marker, *self._lims)
 
     def _name_plot(self, plot: Any, element: Any) -> None:
         """Title (the parameters, so a saved PNG carries them) and the save tool's file name."""

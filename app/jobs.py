@@ -25,6 +25,7 @@ import collections
 import itertools
 import logging
 import multiprocessing as mp
+import multiprocessing.util  # noqa: F401  (its exit handler first, so ours runs before it)
 import threading
 import time
 import weakref
@@ -331,13 +332,12 @@ _pool: JobPool | None = None
 _pool_lock = threading.Lock()
 
 
-def pool(size: int = 2) -> JobPool:
-    """The server's job pool (started on first use; its workers load the compiled kernels)."""
+def pool(size: int = 2, warm: Callable[[], Any] | None = None) -> JobPool:
+    """The server's job pool, started on first use (``warm`` runs in each worker first)."""
     global _pool
     with _pool_lock:
         if _pool is None:
-            from .work import warm_up
-            _pool = JobPool(size=size, warm=warm_up)
+            _pool = JobPool(size=size, warm=warm)
         return _pool
 
 

@@ -14,7 +14,9 @@ import html
 import math
 from typing import Any
 
-from .core import REGIME_COLOURS, REGIMES
+import numpy as np
+
+from .core import REGIME_CODES, REGIME_COLOURS, REGIMES
 
 #: Regime letter → colour (maps, badge, legends).
 REGIME_COLOR = dict(REGIME_COLOURS)
@@ -191,3 +193,20 @@ def what_to_hear(classification, impacts: int, seconds: float, freq_hz: float) -
         return f"**Irregular rattle** (non-repeating): about {rate:.4g} impacts per second."
     return (f"**Periodic buzz**: {rate:.4g} impacts per second, repeating every {c.period} "
             f"period{'s' if c.period > 1 else ''} ({freq_hz / max(c.period, 1):.4g} Hz).")
+
+
+def map_legend(r: Any) -> str:
+    """The regimes (or attractors) of a map with their colours and counts (no user text)."""
+    def swatch(colour: str) -> str:
+        return (f"<span style='display:inline-block;width:14px;height:14px;background:{colour};"
+                "border:1px solid #555;margin-right:6px;vertical-align:middle'></span>")
+    if r.kind == "basin":
+        from bokeh.palettes import Category20
+        rows = [f"<div class='map-attractor' data-regime='{a['regime']}'>{swatch(Category20[20][i % 20])}"
+                f"<b>{i}</b>: regime {a['regime']}{', period ' + str(a['period']) if a['period'] else ''}, "
+                f"{100 * a['share']:.1f} %</div>" for i, a in enumerate(r.attractors[:40])]
+        return "<div><b>Attractors</b> (regime, period, share of the grid)</div>" + "".join(rows)
+    reg = np.asarray(r.fields["regime"])
+    rows = [f"<div class='map-regime' data-regime='{k}'>{swatch(REGIME_COLOR[k])}<b>{k}</b> "
+            f"{REGIME_MEANING[k]} ({int((reg == c).sum())})</div>" for k, c in REGIME_CODES.items()]
+    return "<div><b>Regimes</b> (points)</div>" + "".join(rows)

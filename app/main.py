@@ -31,10 +31,10 @@ import panel as pn
 
 if __package__ in (None, ""):  # run as a script by `panel serve app/main.py`
     sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-    from app import jobs, maps_view
+    from app import jobs, maps_view, work
     from app.dashboard import Dashboard
 else:  # imported as a package: `app` in a checkout, `rattle_app` when installed
-    from . import jobs, maps_view
+    from . import jobs, maps_view, work
     from .dashboard import Dashboard
 
 log = logging.getLogger("app")
@@ -109,7 +109,7 @@ def warm_up(pool: bool = True) -> None:
         dynspread(datashade(pts, dynamic=False, width=50, height=50), dynamic=False)
         _assets()
         if pool:
-            jobs.pool()
+            jobs.pool(warm=work.warm_up)  # the workers load the compiled kernels before a job
         _warm = True
 
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import io
 import math
+import weakref
 from typing import Any
 
 import holoviews as hv
@@ -27,10 +28,11 @@ import param
 
 from . import work
 from .core import REGIME_CODES, excitation, paper_phi2_to_core, plan_map
-from .state import ExplorerState, Said
-from .labels import REGIME_COLOR, REGIME_MEANING, text_html
-from .plots import TOOLS, file_stem
-from .widgets import Choice, Field, later, message
+from .state import ExplorerState, MapSettings
+from .threads import HV_LOCK, later
+from .labels import REGIME_COLOR, map_legend, text_html
+from .plots import TOOLS, HoloViewsPane, caption, file_stem, save_as
+from .widgets import Choice, Field, message
 
 AXES = {"lam": "Λ", "r": "r", "j": "j", "h2": "H₂/H₁", "phi2": "φ₂ [°]",
         "rpm": "engine speed [rpm]", "drag_torque": "drag torque C [N·m]"}
@@ -55,23 +57,6 @@ def scheduler() -> str:
     return _scheduler
 
 
-class MapSettings(Said):
-    """What map to compute, with the allowed ranges."""
-
-    kind = param.Selector(default="regime", objects=["regime", "basin"])
-    x_axis = param.Selector(default="lam", objects=[*AXES, "x0", "v0"], label="x axis")
-    y_axis = param.Selector(default="phi2", objects=[*AXES, "x0", "v0"], label="y axis")
-    x_start = param.Number(0.5, label="x from")
-    x_stop = param.Number(4.0, label="x to")
-    x_num = param.Integer(60, bounds=(2, 400), label="x points")
-    y_start = param.Number(0.0, label="y from")
-    y_stop = param.Number(360.0, label="y to")
-    y_num = param.Integer(60, bounds=(2, 400), label="y points")
-    transient = param.Integer(200, bounds=(0, 100_000), label="transient periods")
-    record = param.Integer(60, bounds=(1, 10_000), label="recorded periods")
-    field = param.Selector(default="regime", objects=[*FIELDS, "attractor"], label="shown")
-
-
 class MapsView(pn.viewable.Viewer):
     """The Maps tab of one session."""
 
@@ -83,7 +68,11 @@ class MapsView(pn.viewable.Viewer):
         super().__init__(**params)
         self.settings = m = MapSettings()
         self.result: Any = None
+        self.job: Any = None
         self._request: dict | None = None
+        self._figure = lambda: None
+        self._generation = 0
+        self._stem = "rattle_map"
         m.param.watch(self._on_axis, ["x_axis", "y_axis"])
         m.param.watch(self._on_kind, "kind")
         self.state.param.watch(self._on_units, "units")
@@ -102,15 +91,9 @@ class MapsView(pn.viewable.Viewer):
         self.download = pn.widgets.FileDownload(callback=self._csv, filename="map.csv", label="Map as CSV",
                                                 color="success", disabled=True,
                                                 css_classes=["map-download"], sizing_mode="stretch_width")
-        self.image = hv.DynamicMap(self._image, streams=[hv.streams.Params(self, ["revision"]),
-                                                         hv.streams.Params(m, ["field"])])
-        self.marker = hv.DynamicMap(self._marker, streams=[hv.streams.Params(self.state, ["result"]),
-                                                           hv.streams.Params(self, ["revision"])])
-        self.tap = hv.streams.Tap(source=self.image)
-        self.tap.add_subscriber(lambda x=None, y=None, **_: later(self.select_point, x, y))
-        self.pane = pn.pane.HoloViews((self.image * self.marker).opts(
-            hv.opts.Overlay(width=640, height=520, framewise=True, hooks=[_name_plot])),
-            css_classes=["map-plot"])
+        self.pane = HoloViewsPane(self._plot(), css_classes=["map-plot"])
+        # a new colour scale (regimes, log intensity, linear) needs a plot of its own
+        m.param.watch(lambda e: setattr(self.pane, "object", self._plot()), "field")
         self._choices = {n: Choice(m, n, {_axis_label(a): a for a in self._axes()}, select=True,
                                    sizing_mode="stretch_width") for n in ("x_axis", "y_axis")}
         self._field = Choice(m, "field", {v: k for k, v in FIELDS.items()}, select=True, width=300)
@@ -218,7 +201,7 @@ class MapsView(pn.viewable.Viewer):
             s.say("map-y" if text.startswith("y axis") else "map-x" if text.startswith("x axis")
                   else "map-run", text)
             return None
-        return {"params": run.params, "phys": run.phys, "x_name": m.x_axis, "y_name": m.y_axis,
+        return {"run": run, "params": run.params, "phys": run.phys, "x_name": m.x_axis, "y_name": m.y_axis,
                 "x_values": xv, "y_values": yv, "core": core, "plan": plan,
                 "transient": m.transient, "record": m.record, "key": _key(run.params, plan)}
 
@@ -236,16 +219,16 @@ class MapsView(pn.viewable.Viewer):
                                        f"= {n} points {where}…")
         args = (req["params"], req["phys"], req["x_name"], req["core"]["x"], req["y_name"],
                 req["core"]["y"], req["transient"], req["record"], _scheduler)
-        self._job = self.jobs.submit("map", work.regime_map, args, time_limit=300.0,
+        self.job = self.jobs.submit("map", work.regime_map, args, time_limit=300.0,
                                      on_progress=lambda f: self._progress(req, f),
                                      on_done=lambda r: self._done(req, r),
                                      on_error=lambda msg: self._error(req, msg))
         return True
 
     def cancel(self, text: str | None = None) -> None:
-        if getattr(self, "_job", None) is not None:
-            self._job.cancel()
-            self._job = None
+        if self.job is not None:
+            self.job.cancel()
+            self.job = None
         self._request = None
         self.progress.visible = False
         self.cancel_button.disabled = True
@@ -265,7 +248,7 @@ class MapsView(pn.viewable.Viewer):
     def _done(self, req: dict, result: Any) -> None:
         if req is not self._request:
             return
-        self._job = None
+        self.job = None
         self.progress.visible = False
         self.cancel_button.disabled = True
         result.x_values, result.y_values = req["x_values"], req["y_values"]
@@ -276,10 +259,42 @@ class MapsView(pn.viewable.Viewer):
 
     # ----- drawing ------------------------------------------------------------------------------
 
-    def _image(self, revision: int = 0, field: str = "regime") -> hv.Image:
-        r = self.result
+    def _plot(self) -> Any:
+        """The map and the current point, with a click stream (one per colour scale)."""
+        with HV_LOCK:
+            return self._build_plot()
+
+    def _build_plot(self) -> Any:
+        self.image = hv.DynamicMap(self._image, streams=[hv.streams.Params(self, ["revision"])])
+        self.marker = hv.DynamicMap(self._marker, streams=[hv.streams.Params(self.state, ["result"]),
+                                                           hv.streams.Params(self, ["revision"])])
+        ref = weakref.ref(self)
+        self.tap = hv.streams.Tap(source=self.image)
+        self.tap.add_subscriber(lambda x=None, y=None, **_: ref() and later(ref().select_point, x, y))
+        old = self._figure()
+        if old is not None:  # the page's map is the new plot's
+            old.name = None
+        self._generation += 1
+        generation = self._generation
+
+        def name_plot(plot: Any, element: Any) -> None:
+            me = ref()
+            if me is not None and me._generation == generation:
+                plot.state.name = "map_figure"
+                plot.state.title.text_font_size = "9pt"
+                me._figure = weakref.ref(plot.state)
+                save_as(lambda: me._stem)(plot, element)
+        return (self.image * self.marker).opts(
+            hv.opts.Overlay(width=640, height=520, hooks=[name_plot]))
+
+    def image_element(self, revision: int = 0) -> hv.Image:
+        """The map as the page draws it, for the field shown."""
+        return self._image(revision)
+
+    def _image(self, revision: int = 0) -> hv.Image:
+        r, field = self.result, self.settings.field
         if r is None:
-            return hv.Image(np.full((2, 2), np.nan), bounds=(0, 0, 1, 1)).opts(colorbar=False)
+            return hv.Image(np.full((2, 2), np.nan), bounds=(0, 0, 1, 1)).opts(colorbar=False, framewise=True)
         if field not in r.fields:
             field = "attractor" if r.kind == "basin" else "regime"
         z = np.asarray(r.fields[field], dtype=np.float64).copy()
@@ -294,8 +309,11 @@ class MapsView(pn.viewable.Viewer):
                         f["period"], f["intensity"], f["lyapunov"]),
                        [hv.Dimension("x", label=AXES.get(r.x_name, r.x_name)),
                         hv.Dimension("y", label=AXES.get(r.y_name, r.y_name))], vd)
+        run = self._shown["run"]
+        self._stem = file_stem(run, f"map-{r.x_name}-{r.y_name}-{field}")
+        title = f"{FIELDS.get(field, 'attractor reached')} · {caption(run)}"
         opts = {"clipping_colors": {"NaN": (0, 0, 0, 0)}, "tools": [*TOOLS, "tap", "hover"],
-                "title": f"{FIELDS.get(field, 'attractor reached')} · {'basins' if r.kind == 'basin' else 'regime map'}"}
+                "framewise": True, "title": title}
         if field == "regime":
             opts.update(cmap=[REGIME_COLOR[k] for k in REGIME_CODES], clim=(-0.5, len(REGIME_CODES) - 0.5),
                         colorbar=False, logz=False)
@@ -322,7 +340,7 @@ class MapsView(pn.viewable.Viewer):
             else:
                 point = (getattr(s, r.x_name), getattr(s, r.y_name))
         return hv.Points([point] if point else []).opts(marker="circle_cross", size=14, fill_color=None,
-                                                        line_color="white", line_width=2)
+                                                        line_color="white", line_width=2, framewise=True)
 
     def _on_result(self, *_: Any) -> None:
         r, req, run = self.result, getattr(self, "_shown", None), self.state.result
@@ -339,7 +357,7 @@ class MapsView(pn.viewable.Viewer):
         if stale:
             text += " For other parameters than the current ones: press Compute to update."
         self.status.object = text_html(text)
-        self.legend.object = _legend(r)
+        self.legend.object = map_legend(r)
 
     # ----- clicks -------------------------------------------------------------------------------
 
@@ -364,12 +382,12 @@ class MapsView(pn.viewable.Viewer):
         except ValueError as exc:
             s.say("map-run", f"{exc}")
 
+    def csv(self) -> io.StringIO:
+        """The map as the CSV the page offers."""
+        return self._csv()
+
     def _csv(self) -> io.StringIO:
         return io.StringIO("" if self.result is None else self.result.table().to_csv(index=False))
-
-
-def _name_plot(plot: Any, element: Any) -> None:
-    plot.state.name = "map_figure"
 
 
 def _axis_label(name: str) -> str:
@@ -383,20 +401,3 @@ def _key(params: Any, plan: tuple) -> str:
     elif plan[0] == "flat":
         params = params.with_value(plan[1], 1.0)
     return repr(params.canonical())
-
-
-def _legend(r: Any) -> str:
-    """The regimes (or attractors) of a map with their colours and counts (no user text)."""
-    def swatch(colour: str) -> str:
-        return (f"<span style='display:inline-block;width:14px;height:14px;background:{colour};"
-                "border:1px solid #555;margin-right:6px;vertical-align:middle'></span>")
-    if r.kind == "basin":
-        from bokeh.palettes import Category20
-        rows = [f"<div class='map-attractor' data-regime='{a['regime']}'>{swatch(Category20[20][i % 20])}"
-                f"<b>{i}</b>: regime {a['regime']}{', period ' + str(a['period']) if a['period'] else ''}, "
-                f"{100 * a['share']:.1f} %</div>" for i, a in enumerate(r.attractors[:40])]
-        return "<div><b>Attractors</b> (regime, period, share of the grid)</div>" + "".join(rows)
-    reg = np.asarray(r.fields["regime"])
-    rows = [f"<div class='map-regime' data-regime='{k}'>{swatch(REGIME_COLOR[k])}<b>{k}</b> "
-            f"{REGIME_MEANING[k]} ({int((reg == c).sum())})</div>" for k, c in REGIME_CODES.items()]
-    return "<div><b>Regimes</b> (points)</div>" + "".join(rows)

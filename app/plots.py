@@ -17,10 +17,12 @@ from typing import Any, Callable
 
 import holoviews as hv
 import numpy as np
+import panel as pn
 
 from .core import TWO_PI
 from .state import display_phases
 from .labels import num
+from .threads import HV_LOCK, later
 
 #: Samples per forcing period of the time history (impact instants are added exactly).
 POINTS_PER_PERIOD = 160
@@ -66,6 +68,18 @@ def save_as(get_stem: Callable[[], str]) -> Callable:
             if isinstance(tool, SaveTool) and tool.filename != stem:
                 tool.filename = stem
     return hook
+
+
+class HoloViewsPane(pn.pane.HoloViews):
+    """``pn.pane.HoloViews`` whose plots are built under :data:`HV_LOCK`."""
+
+    def _get_model(self, *args: Any, **kwargs: Any) -> Any:
+        with HV_LOCK:
+            return super()._get_model(*args, **kwargs)
+
+    def _update_object(self, *args: Any, **kwargs: Any) -> Any:
+        with HV_LOCK:
+            return super()._update_object(*args, **kwargs)
 
 
 def weak_hook(method: Callable) -> Callable:
@@ -132,7 +146,6 @@ class Zoom:
         if resetting and self.user:
             self.user = False
             if self._on_reset is not None:
-                from .widgets import later
                 later(self._on_reset)
 
 

@@ -15,8 +15,6 @@ import os
 import shutil
 import socket
 import sys
-import time
-import urllib.request
 from pathlib import Path
 
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
@@ -25,13 +23,15 @@ CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-
 READY = """() => {
   const d = window.Bokeh && Bokeh.documents && Bokeh.documents[0];
   if (!d) return false;
-  const th = d.get_model_by_name('th_motion'), bif = d.get_model_by_name('bif_image');
-  return th != null && th.get_length() > 0 && bif != null && bif.get_length() > 0;
+  const th = d.get_model_by_name('th_motion');
+  const names = [...d._all_models.values()].map(m => m.name);
+  return th != null && th.get_length() > 0 && names.includes('bifurcation') && names.includes('section');
 }"""
 
 MAP_READY = """() => {
-  const m = Bokeh.documents[0].get_model_by_name('map_image');
-  return m != null && m.get_length() > 0;
+  const f = [...Bokeh.documents[0]._all_models.values()].find(m => m.name === 'map_figure');
+  return f != null && f.renderers.some(r => r.data_source && r.data_source.data.image &&
+                                            r.data_source.data.image.length && r.data_source.data.image[0].length > 4);
 }"""
 
 
@@ -50,22 +50,14 @@ def main() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    server = serve(port=port, threaded=True)
+    server = serve(port=port, threaded=True, quiet=True)
     try:
-        deadline = time.monotonic() + 120
-        while True:
-            try:
-                urllib.request.urlopen(f"http://localhost:{port}/liveness", timeout=2)
-                break
-            except OSError:
-                if time.monotonic() > deadline:
-                    raise RuntimeError("the dashboard did not start") from None
-                time.sleep(0.2)
         with sync_playwright() as pw:
             browser = pw.chromium.launch(executable_path=args.chromium, args=CHROMIUM_ARGS)
             page = browser.new_page(viewport={"width": 1500, "height": 1020})
             page.goto(f"http://localhost:{port}/{args.query}")
             page.wait_for_function(READY, timeout=120_000)
+            page.locator(".bif-status").filter(has_text="swept").first.wait_for(timeout=300_000)
             if args.maps:
                 page.locator(".bk-tab", has_text="Maps").first.click()
                 page.locator(".map-compute button").first.click()

@@ -37,6 +37,7 @@ from . import jobs as jobs_module
 from .state import (PHYSICAL_KEYS, RUN_KEYS, URL_KEYS, ExplorerState, Run, rattle_params,
                              rejection)
 from .physical import LinkError, link, run_physical
+from .threads import HV_LOCK
 
 log = logging.getLogger(__name__)
 
@@ -105,7 +106,7 @@ class SessionJobs:
             from panel.io.state import set_curdoc
 
             def tick() -> None:
-                with set_curdoc(doc):
+                with set_curdoc(doc), HV_LOCK:
                     try:
                         fn(arg)
                     except Exception as exc:  # a failed update stays in this session's log line
@@ -159,6 +160,10 @@ class Session:
         """Carry a change of ``names`` across the link, run, publish; False if it was refused."""
         if self._busy:
             return False
+        with HV_LOCK:  # the views redraw HoloViews plots from here (see app.plots.HV_LOCK)
+            return self._refresh(names, physical_wins)
+
+    def _refresh(self, names: set[str], physical_wins: bool) -> bool:
         self._busy = True
         s = self.state
         try:

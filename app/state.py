@@ -201,6 +201,28 @@ class ExplorerState(Said):
                           harmonics=format_harmonics(harm))
 
 
+#: Axes and fields a map can have (dimensionless, physical, or the start state for basins).
+MAP_AXES = ["lam", "r", "j", "h2", "phi2", "rpm", "drag_torque", "x0", "v0"]
+MAP_FIELDS = ["regime", "intensity", "period", "lyapunov", "stick_fraction", "attractor"]
+
+
+class MapSettings(Said):
+    """The Maps tab's request: axes, ranges, points, periods and the field shown, with bounds."""
+
+    kind = param.Selector(default="regime", objects=["regime", "basin"])
+    x_axis = param.Selector(default="lam", objects=MAP_AXES, label="x axis")
+    y_axis = param.Selector(default="phi2", objects=MAP_AXES, label="y axis")
+    x_start = param.Number(0.5, label="x from")
+    x_stop = param.Number(4.0, label="x to")
+    x_num = param.Integer(60, bounds=(2, 400), label="x points")
+    y_start = param.Number(0.0, label="y from")
+    y_stop = param.Number(360.0, label="y to")
+    y_num = param.Integer(60, bounds=(2, 400), label="y points")
+    transient = param.Integer(200, bounds=(0, 100_000), label="transient periods")
+    record = param.Integer(60, bounds=(1, 10_000), label="recorded periods")
+    field = param.Selector(default="regime", objects=MAP_FIELDS, label="shown")
+
+
 #: State parameters → URL query keys.
 URL_KEYS = {n: n for n in ExplorerState.param if n not in ("name", "result", "messages", "branch")}
 URL_KEYS.update(inertia="J", radius="Rb", drag_torque="C", backlash_um="b_um", backlash_unit="b_unit",

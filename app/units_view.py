@@ -16,7 +16,7 @@ import panel as pn
 import param
 
 from .core import physical_table, units
-from .state import ExplorerState
+from .state import PHYSICAL_KEYS, ExplorerState
 from .labels import table_html
 from .physical import SOLVE_LABELS, excitation_values
 from .widgets import Choice, Field, _label_html, message, set_value
@@ -92,12 +92,14 @@ class UnitsView(pn.viewable.Viewer):
             "phase2": Field(s, "phase2", "φ₂ · order-2 phase [°], cos(2ωt − φ₂)"),
         }
         self.backlash = BacklashField(s)
-        self.backlash_unit = Choice(s, "backlash_unit", BACKLASH_OPTIONS, sizing_mode="stretch_width")
+        self.backlash_unit = Choice(s, "backlash_unit", BACKLASH_OPTIONS, sizing_mode="stretch_width",
+                                    orientation="vertical")
         self.excitation = pn.widgets.RadioButtonGroup(options=EXCITATION_OPTIONS, value=s.excitation,
-                                                      css_classes=["ctl-excitation"],
+                                                      css_classes=["ctl-excitation"], orientation="vertical",
                                                       sizing_mode="stretch_width")
         self.excitation.param.watch(self._on_excitation, "value")
-        self.solve_for = Choice(s, "solve_for", SOLVE_OPTIONS, sizing_mode="stretch_width")
+        self.solve_for = Choice(s, "solve_for", SOLVE_OPTIONS, select=True, label="",
+                                sizing_mode="stretch_width")
         note = {"margin": (6, 10, 0, 10)}
         self.body = pn.Column(
             _bold("Idle gear", **note), self.fields["inertia"], self.fields["radius"],
@@ -110,7 +112,8 @@ class UnitsView(pn.viewable.Viewer):
             _bold("Orders ≥ 3 (Advanced) keep their ratio H_k/H₁. A change of Λ (slider, preset, "
                   "click) moves:", **note),
             self.solve_for,
-            visible=s.units, margin=0, sizing_mode="stretch_width")
+            visible=s.units or any(k in s.messages for k in PHYSICAL_KEYS), margin=0,
+            sizing_mode="stretch_width")
         self.card = pn.Card(
             pn.Row(self.switch, pn.pane.HTML(_label_html("SI inputs ⇄ Λ, j, h₂, φ₂"), margin=(14, 0)),
                    sizing_mode="stretch_width"),
@@ -118,6 +121,7 @@ class UnitsView(pn.viewable.Viewer):
             sizing_mode="stretch_width", css_classes=["units-card"])
         self.table = pn.pane.HTML("", css_classes=["units-table"], visible=s.units, width=330)
         s.param.watch(self._on_units, "units")
+        s.param.watch(self._show_messages, "messages")
         s.param.watch(self._on_kind, "excitation")
         s.param.watch(self._draw_table, "result")
         self._on_kind()
@@ -130,6 +134,11 @@ class UnitsView(pn.viewable.Viewer):
         self.switch.value = event.new
         self.body.visible = self.table.visible = event.new
         self._draw_table()
+
+    def _show_messages(self, event) -> None:
+        """A refused physical input (from a link, say) shows its message even while the mode is off."""
+        if any(k in event.new for k in (*PHYSICAL_KEYS, "solve_for", "excitation")):
+            self.body.visible = True
 
     def _on_kind(self, *_: Any) -> None:
         s = self.state

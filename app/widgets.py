@@ -60,25 +60,6 @@ def deferred(obj: Any) -> Any:
                                   min_height=380)
 
 
-def later(fn: Any, *args: Any) -> None:
-    """Run ``fn(*args)`` on the session's next tick (at once without a server).
-
-    HoloViews runs its stream callbacks (a click, a zoom) outside the document's lock; a
-    state change from there must wait for a tick of its own, where Bokeh holds the lock.
-    """
-    doc = pn.state.curdoc
-    if doc is None or doc.session_context is None:
-        fn(*args)
-        return
-
-    def tick() -> None:
-        try:
-            fn(*args)
-        except Exception as exc:  # a callback never raises into the page
-            log.warning("deferred update failed: %s: %s", type(exc).__name__, exc)
-    doc.add_next_tick_callback(tick)
-
-
 class Field(pn.viewable.Viewer):
     """A numeric parameter: its label, an exact-value box, a slider (if it has softbounds), its message."""
 

@@ -80,6 +80,10 @@ class LogRecorder(logging.Handler):
         out = []
         for r in self.records:
             text = r.getMessage()
+            if "WebSocketClosedError" in text and "Task exception was never retrieved" in text:
+                # tornado reports a patch Bokeh wrote to a socket the browser had just closed;
+                # the session itself is destroyed a few seconds later, as it should be
+                continue
             if r.exc_info or "Traceback (most recent call last)" in text:
                 out.append(f"{r.name}: {text}")
         return out

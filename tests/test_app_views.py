@@ -149,7 +149,7 @@ def test_slider_box_moves_the_state_and_redraws_every_view(dash):
     dash.controls.fields["lam"].box.value = 3.4
     s = dash.state
     assert s.lam == 3.4 and s.result.params.lam == 3.4 and _xsum(dash) != before
-    assert len(dash.section._xy[0]) == s.periods
+    assert len(dash.section.points[0]) == s.periods
     assert f'data-regime="{s.result.cls.regime}"' in dash.regime.badge.object
 
 
@@ -186,9 +186,10 @@ def test_diagram_is_shipped_marks_the_current_value_and_a_click_sets_lambda(dash
     """The default diagram is the shipped Figure 4; its range holds Λ; a click sets Λ."""
     d = dash.diagram
     assert d.diagram is not None and "fig4" in d.diagram.source
-    assert d._span == (0.5, 4.0) and "600 values of Λ swept" in d.status.object
-    d._on_tap(x=2.123456, y=0.0)
+    assert d.span == (0.5, 4.0) and "600 values of Λ swept" in d.status.object
+    d.set_swept(2.123456)
     assert dash.state.lam == 2.1235 and dash.state.result.params.lam == 2.1235
+    assert d.marker in (None, 2.1235)  # on a drawn page, the marker follows
     assert d.diagram is not None and "fig4" in d.diagram.source  # Λ moves only the marker
 
 
@@ -199,7 +200,7 @@ def test_diagram_at_lambda_06_shows_the_whole_range_and_counts_every_value(dash)
     d = dash.diagram
     wait_for(lambda: d.diagram is not None and d.revision > 0 and "swept" in d.status.object,
              what="the diagram")
-    assert d._span == (0.5, 4.0) and d.diagram.swept.size == 400
+    assert d.span == (0.5, 4.0) and d.diagram.swept.size == 400
     assert d.status.object.count("400 values of Λ swept") == 1 and "without impacts" in d.status.object
     assert d.diagram.swept.min() <= 0.6 <= d.diagram.swept.max()
 
@@ -236,11 +237,11 @@ def test_units_mode_draws_rpm_and_si(dash):
     assert "impact rate" in dash.regime.metrics.object and "N·s" in dash.regime.metrics.object
     d = dash.diagram
     wait_for(lambda: d.diagram is not None and d.diagram.name == "rpm", what="the rpm diagram")
-    assert d._span == (500.0, 6000.0) and d._axis()[0] == "engine speed [rpm]"
+    assert d.span == (500.0, 6000.0) and d.axes()[0] == "engine speed [rpm]"
     phys = s.result.phys
     wanted = units.impulse_scale_from_rpm(phys, d.diagram.x)
     assert np.all(np.abs(d.diagram.impulse) <= 1e3 * np.max(wanted))
-    d._on_tap(x=2222.04, y=0.0)
+    d.set_swept(2222.04)
     assert s.rpm == 2222.0 and s.lam == pytest.approx(float(units.lam_from_rpm(phys, 2222.0)), rel=1e-12)
     s.units = False
     assert s.bif == "lam"

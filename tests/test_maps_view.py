@@ -30,7 +30,7 @@ def compute(view):
 def image(view, field=None):
     if field is not None:
         view.settings.field = field
-    return view._image(field=view.settings.field).dimension_values(2, flat=False)
+    return view.image_element().dimension_values(2, flat=False)
 
 
 def test_regime_image_equals_regime_map(dash):
@@ -57,14 +57,16 @@ def test_each_field_has_its_own_colours_and_the_csv_has_every_cell(dash):
     view = dash.maps
     small(view, 4, 3)
     r = compute(view)
-    el = view._image(field="intensity")
+    view.settings.field = "intensity"
+    el = view.image_element()
     opts = el.opts.get().kwargs
     assert opts["cmap"] == "magma" and opts["logz"] and opts["colorbar"]
     inten = r.fields["intensity"]
     assert opts["clim"][1] == pytest.approx(np.nanmax(inten[inten > 0]))
-    reg = view._image(field="regime").opts.get().kwargs
+    view.settings.field = "regime"
+    reg = view.image_element().opts.get().kwargs
     assert reg["cmap"][:2] == ["#9e9e9e", "#ff9800"] and not reg["colorbar"]
-    df = pd.read_csv(view._csv())
+    df = pd.read_csv(view.csv())
     assert len(df) == 12 and list(df.columns[:3]) == ["lam", "phi2", "regime"]
 
 
@@ -131,13 +133,15 @@ def test_cancel_and_replace(dash, job_pool):
     small(view, 40, 40, transient=400, record=100)
     view.settings.x_start = 0.512345  # a grid not in the disk cache
     assert view.compute()
-    job = view._job
+    job = view.job
     view.cancel("Cancelled.")
     assert job.cancelled and "Cancelled." in view.status.object
     small(view, 4, 4)
     r = compute(view)
     assert r.x_values.size == 4
-    assert [j for j in job_pool.pending(dash.session.key) if j.owner[1] == "map"] == []
+    # the cancelled map stops between chunks, or is killed with its worker after the grace
+    wait_for(lambda: not [j for j in job_pool.pending(dash.session.key) if j.owner[1] == "map"],
+             timeout=30, what="the cancelled map to end")
 
 
 def test_physical_map_click_lands_on_the_clicked_rpm_and_torque(dash):

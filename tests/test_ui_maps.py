@@ -14,7 +14,8 @@ from test_ui import open_dashboard
 pytestmark = [pytest.mark.ui, pytest.mark.timeout(300)]
 
 MAP_SOURCE = """() => {
-  const f = Bokeh.documents[0].get_model_by_name('map_figure');
+  const f = [...Bokeh.documents[0]._all_models.values()].filter(m => m.name === 'map_figure')
+    .find(m => { const v = Bokeh.index.find_one(m); return v && v.el.isConnected; });
   if (f == null) return null;
   for (const r of f.renderers) {
     const s = r.data_source;

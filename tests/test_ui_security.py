@@ -81,9 +81,16 @@ def test_no_page_chooses_where_the_server_connects(page, dashboard_server):
     assert "this server's cores" in page.locator(".map-where div").first.inner_text()
 
 
+def _rss_mb() -> float:
+    """This process's resident memory [MB] (the server runs in it)."""
+    with open("/proc/self/status") as f:
+        return next(int(line.split()[1]) for line in f if line.startswith("VmRSS")) / 1024
+
+
 def test_twenty_closed_sessions_are_collected(browser, dashboard_server):
     """20 pages opened and closed: their sessions and dashboards are garbage-collected."""
     refs = []
+    rss = _rss_mb()
     context = browser.new_context(viewport={"width": 1400, "height": 1000})
     try:
         for i in range(20):
@@ -103,6 +110,7 @@ def test_twenty_closed_sessions_are_collected(browser, dashboard_server):
         gc.collect()
         time.sleep(1.0)
     alive = [type(r()).__name__ for r in refs if r() is not None]
+    print(f"server RSS {rss:.0f} MB before 20 sessions, {_rss_mb():.0f} MB after they closed")
     assert alive == []
     assert dashboard_server["log"].tracebacks() == []
 

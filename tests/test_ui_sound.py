@@ -24,6 +24,13 @@ SRC_HASH = """(el) => { const s = el.src; let h = s.length;
   return h; }"""
 
 
+def wait_sound(page) -> None:
+    """Wait for the page's first sound (rendered once the page has loaded)."""
+    page.locator(AUDIO).first.wait_for(state="attached", timeout=20_000)
+    page.wait_for_function("(el) => el.src.length > 1000",
+                           arg=page.locator(AUDIO).first.element_handle(), timeout=30_000)
+
+
 def audio_wav(page) -> tuple[int, np.ndarray]:
     """Sample rate and int16 samples of the WAV held by the page's audio element."""
     src = page.locator(AUDIO).first.evaluate("el => el.src")
@@ -53,7 +60,6 @@ def test_page_holds_the_rattle_sound(page, dashboard_server):
     """The card's audio element holds a WAV of the trajectory's length at a peak of 0.99."""
     errors = open_dashboard(page, dashboard_server, "?lam=3.3&h2=0&periods=50")
     wait_box(page, "h2", 0.0)
-    page.locator(AUDIO).first.wait_for(state="attached", timeout=20_000)
     wait_sound(page)
     rate, data = audio_wav(page)
     assert rate == 44_100 and data.dtype == np.int16
@@ -69,7 +75,6 @@ def test_render_after_a_parameter_change_replaces_the_sound(page, dashboard_serv
     errors = open_dashboard(page, dashboard_server, "?lam=3.3&h2=0&periods=50")
     wait_box(page, "h2", 0.0)
     audio = page.locator(AUDIO).first
-    audio.wait_for(state="attached", timeout=20_000)
     wait_sound(page)
     before = audio.evaluate(SRC_HASH)
     b = box(page, "lam")
