@@ -28,6 +28,7 @@ from .branch import FIND_TRANSIENT, Branch, from_job, continue_both_ways, is_per
 from .core import paper_phi2_to_core
 from .diagram_data import current_value, diagram_key, full_range
 from .state import ExplorerState
+from .plots import HoloViewsPane
 from .widgets import message
 
 BRANCH_COLOR = "#6c3483"
@@ -127,8 +128,8 @@ class ContinuationView(pn.viewable.Viewer):
                                    sizing_mode="stretch_width")
         self.multipliers = hv.DynamicMap(self._multipliers, streams=[
             hv.streams.Params(self.state, ["branch", "result"])])
-        self.pane = pn.pane.HoloViews(self.multipliers, css_classes=["cont-multipliers"],
-                                      width=240, height=240)
+        self.pane = HoloViewsPane(self.multipliers, css_classes=["cont-multipliers"],
+                                  width=240, height=240)
         self.state.param.watch(self._update, ["result", "bif", "phases", "continuation",
                                               "cont_from"])
         self._update()
