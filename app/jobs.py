@@ -304,6 +304,9 @@ class JobPool:
         if w.process.is_alive():
             w.process.kill()
         w.process.join(timeout=5.0)
+        if reason != "cancelled":
+            log.warning("job pool: a worker process ended after %.1f s (exit code %s): %s",
+                        time.monotonic() - w.started, w.process.exitcode, reason)
         try:
             w.conn.close()
         except OSError:

@@ -9,6 +9,8 @@
   processes, and ``wait_for`` waits for their results.
 * ``dashboard_server`` serves the real dashboard once per test session on a free port and
   records every log line, so tests can assert that the server printed no traceback.
+* The run has a disk cache of its own, empty at the start, so no test is served a result that
+  an earlier run left (the worker processes inherit it).
 """
 from __future__ import annotations
 
@@ -17,7 +19,9 @@ import logging
 import os
 import shutil
 import socket
+import tempfile
 import time
+import traceback
 import urllib.request
 
 import pytest
@@ -33,6 +37,17 @@ def _ui_unavailable() -> str | None:
     if not os.path.exists(CHROMIUM):
         return f"Chromium not found at {CHROMIUM} (scripts/test.sh installs Debian's chromium)"
     return None
+
+
+def pytest_configure(config):
+    """A fresh, empty disk cache for the run: no test is served by a result from earlier runs."""
+    os.environ["RATTLE_CACHE_DIR"] = tempfile.mkdtemp(prefix="rattle-test-cache-")
+
+
+def pytest_unconfigure(config):
+    path = os.environ.get("RATTLE_CACHE_DIR", "")
+    if os.path.basename(path).startswith("rattle-test-cache-"):
+        shutil.rmtree(path, ignore_errors=True)
 
 
 def pytest_collection_modifyitems(config, items):
@@ -83,6 +98,11 @@ class LogRecorder(logging.Handler):
             if "WebSocketClosedError" in text and "Task exception was never retrieved" in text:
                 # tornado reports a patch Bokeh wrote to a socket the browser had just closed;
                 # the session itself is destroyed a few seconds later, as it should be
+                continue
+            if (r.exc_info and r.exc_info[0] is AssertionError and "GET /ws" in text
+                    and "bokeh/server/connection.py" in "".join(traceback.format_tb(r.exc_info[2]))):
+                # Bokeh asserts when a page closes its socket before its session was attached
+                # (bokeh.server.connection.ServerConnection.session); nothing was served yet
                 continue
             if r.exc_info or "Traceback (most recent call last)" in text:
                 out.append(f"{r.name}: {text}")
