@@ -2,7 +2,7 @@
 
 A ``pn.viewable.Viewer`` over the state with its own request settings (:class:`MapSettings`:
 axes, ranges, points, periods, the field shown), whose bounds validate them. Compute runs
-:func:`rattle_core.maps.run_map` as this session's ``map`` job (:mod:`app.jobs`): in a worker
+:func:`rattle_core.store.requests.run_map` as this session's ``map`` job (:mod:`app.jobs`): in a worker
 process, bounded in time, cancelled by Cancel, by a new request and when the session ends,
 from the disk cache when the same map ran before. Maps run on the server's cores, or on the
 Dask scheduler given on the server's command line (``rattle serve --scheduler``,

@@ -1,6 +1,6 @@
 """The rattle sound of the current run: a card in the Explorer tab.
 
-A ``pn.viewable.Viewer`` that plays :func:`rattle_core.sound.synthesize` of ``state.result``
+A ``pn.viewable.Viewer`` that plays :func:`rattle_core.analysis.sound.synthesize` of ``state.result``
 (its first N periods), normalised to a peak of 0.99 because ``pn.pane.Audio`` turns floats
 into int16 as ``int16(x × 32768)``, without clipping. It offers the sound's own settings
 (periods to play, excitation frequency, housing modes, polarity, sample rate), a 16-bit WAV
@@ -54,7 +54,7 @@ SETTINGS = ("periods", "excitation", "modes", "polarity", "sample_rate")
 
 
 def format_modes(modes: tuple[HousingMode, ...]) -> str:
-    """Modes as the text :func:`~rattle_core.sound.parse_modes` reads back."""
+    """Modes as the text :func:`~rattle_core.analysis.sound.parse_modes` reads back."""
     return ", ".join(f"{m.freq_hz:g}:{m.damping:g}:{m.gain:g}" for m in modes)
 
 

@@ -67,7 +67,7 @@ def _client(address: str) -> Any:
 
 def regime_map(params: RattleParams, phys: Any, x_name: str, x_values: np.ndarray, y_name: str,
                y_values: np.ndarray, transient: int, record: int, scheduler: str = "") -> Any:
-    """A regime map or basins over two axes (``rattle_core.maps.run_map``), on Dask if given.
+    """A regime map or basins over two axes (``rattle_core.store.requests.run_map``), on Dask if given.
 
     ``scheduler`` comes from the server's command line only, never from a page.
     """

@@ -1,6 +1,6 @@
 """The Maps tab without a browser: a whole dashboard session, its maps computed by the job pool.
 
-The image the view draws is checked against ``rattle_core.maps`` run on its own, cell by cell;
+The image the view draws is checked against ``rattle_core.batch.maps`` run on its own, cell by cell;
 the messages against the limits they state; clicks against the session's state.
 """
 from __future__ import annotations

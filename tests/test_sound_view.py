@@ -1,7 +1,7 @@
 """The dashboard's rattle-sound card, without a browser.
 
 The sound the card plays and exports is checked against the library's own
-:func:`rattle_core.sound.synthesize` of the dashboard's trajectory, and against the trajectory
+:func:`rattle_core.analysis.sound.synthesize` of the dashboard's trajectory, and against the trajectory
 itself: every impact is an onset in the signal, a gear stuck to its tooth is silent, and the
 physical-units mode stretches the sound by the engine speed.
 """

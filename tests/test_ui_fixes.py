@@ -276,7 +276,7 @@ def test_serve_prints_its_address_only_when_the_port_answers(browser, tmp_path):
     """Fix 8: `rattle serve` prints the address once the port answers; the page then draws."""
     port = free_port()
     env = {**os.environ, "PYTHONPATH": os.getcwd() + os.pathsep + os.environ.get("PYTHONPATH", "")}
-    code = f"import sys; from rattle_core.cli import main; sys.exit(main(['serve', '--port', '{port}']))"
+    code = f"import sys; from rattle_cli.main import main; sys.exit(main(['serve', '--port', '{port}']))"
     proc = subprocess.Popen([sys.executable, "-u", "-c", code], stdout=subprocess.PIPE,
                             stderr=subprocess.DEVNULL, text=True, env=env)
     try:
