@@ -180,6 +180,12 @@ class JobPool:
             jobs = list(self._queue) + [w.job for w in self._workers if w.job is not None]
         return [j for j in jobs if session is None or j.owner[0] == session]
 
+    def worker_pids(self, job: Job | None = None) -> list[int]:
+        """Process ids of the live workers (only the one running ``job``, if given)."""
+        with self._lock:
+            return [w.process.pid for w in self._workers if w.process.is_alive() and not w.dead
+                    and (job is None or w.job is job)]
+
     def shutdown(self) -> None:
         with self._lock:
             self._closed = True

@@ -39,7 +39,7 @@ def test_c_branch_on_the_diagram_is_two_pi_over_lambda_and_period_doubles_at_the
     s = dash.state
     b = continued(dash, **PRESETS["Fig 3C"][1])
     assert s.result.cls.regime == "C" and s.continuation and s.cont_from == 1.2
-    ov = dash.diagram._branch(s.branch)
+    ov = dash.diagram.branch[()]
     stable, unstable, marks, labels = ov.values()
     xy = np.concatenate([p[:, :2] for p in stable.split(datatype="array")])
     strict = np.concatenate([g[g["stable"]][["x", "y"]].to_numpy()
@@ -66,7 +66,7 @@ def test_multipliers_of_the_current_point_lie_inside_the_unit_circle_when_stable
     outside at Λ = 2 on the same (now unstable) branch; the C orbit's own multipliers."""
     s = dash.state
     continued(dash, **PRESETS["Fig 3C"][1])
-    circle, pts = dash.continuation._multipliers(s.branch, s.result).values()
+    circle, pts = dash.continuation.multipliers[()].values()
     mu = pts.array()
     want = c_orbit(RattleParams(lam=1.2)).multipliers
     assert len(mu) == 2 and np.all(np.hypot(mu[:, 0], mu[:, 1]) < 1.0)
@@ -77,7 +77,7 @@ def test_multipliers_of_the_current_point_lie_inside_the_unit_circle_when_stable
     branch = s.branch
     s.lam = 2.0
     assert s.branch is branch and s.continuation and s.cont_from == 1.2
-    _, pts = dash.continuation._multipliers(s.branch, s.result).values()
+    _, pts = dash.continuation.multipliers[()].values()
     assert np.max(np.hypot(*pts.array().T)) > 1.0
     assert "unstable" in multipliers_element(s.branch, 2.0).opts.get().kwargs["title"]
 

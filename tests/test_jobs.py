@@ -68,7 +68,7 @@ def test_a_job_past_its_time_limit_is_killed_and_others_still_run(pool):
     assert time.monotonic() - t0 < 3.0  # did not wait for the hung job
     assert hung.done.wait(30) and "time limit" in hung.error
     assert 3.0 <= time.monotonic() - t0 < 15.0
-    assert len([w for w in pool._workers if w.process.is_alive()]) == 2
+    assert len(pool.worker_pids()) == 2
 
 
 def test_cancel_kills_a_job_that_does_not_stop_and_calls_nothing_back(pool):
@@ -76,12 +76,12 @@ def test_cancel_kills_a_job_that_does_not_stop_and_calls_nothing_back(pool):
     out = Outcome()
     job = pool.submit(("c", "x"), time.sleep, (1000,), **out.kwargs())
     time.sleep(0.5)
-    pid = next(w.process.pid for w in pool._workers if w.job is job)
+    pid = pool.worker_pids(job)[0]
     job.cancel()
     deadline = time.monotonic() + 15
-    while any(w.process.pid == pid for w in pool._workers) and time.monotonic() < deadline:
+    while pid in pool.worker_pids() and time.monotonic() < deadline:
         time.sleep(0.1)
-    assert not any(w.process.pid == pid for w in pool._workers)
+    assert pid not in pool.worker_pids()
     assert job.cancelled and not out.done.wait(1.0)
 
 
