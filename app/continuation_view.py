@@ -107,6 +107,8 @@ class ContinuationView(pn.viewable.Viewer):
 
     state = param.ClassSelector(class_=ExplorerState)
     jobs = param.Parameter()
+    point = param.Number(default=None, allow_None=True,
+                         doc="the branch point whose multipliers are drawn (its parameter value)")
 
     def __init__(self, **params: Any):
         super().__init__(**params)
@@ -126,8 +128,11 @@ class ContinuationView(pn.viewable.Viewer):
                                                css_classes=["cont-progress"])
         self.status = pn.pane.HTML("", css_classes=["cont-status"], margin=(0, 10),
                                    sizing_mode="stretch_width")
+        # redrawn when the nearest branch point changes, not on every run: a slider move
+        # without a branch costs the multipliers plot nothing
         self.multipliers = hv.DynamicMap(self._multipliers, streams=[
-            hv.streams.Params(self.state, ["branch", "result"])])
+            hv.streams.Params(self.state, ["branch"]), hv.streams.Params(self, ["point"])])
+        self.state.param.watch(self._follow_point, ["result", "branch"])
         self.pane = HoloViewsPane(self.multipliers, css_classes=["cont-multipliers"],
                                   width=240, height=240)
         self.state.param.watch(self._update, ["result", "bif", "phases", "continuation",
@@ -258,9 +263,14 @@ class ContinuationView(pn.viewable.Viewer):
 
     # ----- elements -----------------------------------------------------------------------------
 
-    def _multipliers(self, branch: Any = None, result: Any = None) -> hv.Overlay:
-        value = current_value(swept(self.state), self.state) if result is not None else np.nan
-        return multipliers_element(branch, value)
+    def _follow_point(self, *_: Any) -> None:
+        s = self.state
+        near = (s.branch.nearest(current_value(swept(s), s))
+                if s.branch is not None and s.result is not None else None)
+        self.point = None if near is None else float(near["x"])
+
+    def _multipliers(self, branch: Any = None, point: float | None = None) -> hv.Overlay:
+        return multipliers_element(branch, np.nan if point is None else point)
 
 
 def _core_value(name: str, phases: str, value: float) -> float:
