@@ -2,11 +2,15 @@
 
     .venv/bin/python -m app.screenshot [--out assets/dashboard.png] [--query "?lam=3.3"]
     .venv/bin/python -m app.screenshot --maps --out assets/maps.png   # the Maps tab, computed
+    .venv/bin/python -m app.screenshot --continuation --query "?lam=1.2&h2=0" \
+        --out assets/continuation.png                                  # "Continue this orbit"
 
 Serves the app on a free local port, opens it in headless Chromium (Debian's ``chromium``;
 Playwright's own browsers cannot be downloaded here), waits until the time history and the
 bifurcation diagram are drawn, and writes the PNG. With ``--maps`` it opens the Maps tab,
-computes the default regime map (Λ × φ₂) and waits for its image first.
+computes the default regime map (Λ × φ₂) and waits for its image first. With
+``--continuation`` it presses "Continue this orbit", waits for the branch on the diagram and
+keeps the part of the page with the diagram and the multipliers.
 """
 from __future__ import annotations
 
@@ -28,6 +32,11 @@ READY = """() => {
   return th != null && th.get_length() > 0 && names.includes('bifurcation') && names.includes('section');
 }"""
 
+BRANCH_READY = """() => {
+  const m = Bokeh.documents[0].get_model_by_name('cont-stable');
+  return m != null && Array.from(m.data_source.data.xs || []).some(x => x.length > 1);
+}"""
+
 MAP_READY = """() => {
   const f = [...Bokeh.documents[0]._all_models.values()].find(m => m.name === 'map_figure');
   return f != null && f.renderers.some(r => r.data_source && r.data_source.data.image &&
@@ -40,6 +49,8 @@ def main() -> int:
     ap.add_argument("--out", default=str(Path(__file__).resolve().parent.parent / "assets" / "dashboard.png"))
     ap.add_argument("--query", default="", help="URL query, e.g. '?lam=3.3&phi2=180'")
     ap.add_argument("--maps", action="store_true", help="screenshot the Maps tab with a computed map")
+    ap.add_argument("--continuation", action="store_true",
+                    help="press 'Continue this orbit' and screenshot the diagram with the branch")
     ap.add_argument("--chromium", default=shutil.which("chromium") or "/usr/bin/chromium")
     args = ap.parse_args()
 
@@ -62,9 +73,19 @@ def main() -> int:
                 page.locator(".bk-tab", has_text="Maps").first.click()
                 page.locator(".map-compute button").first.click()
                 page.wait_for_function(MAP_READY, timeout=300_000)
+            if args.continuation:
+                page.locator(".cont-button button").first.click()
+                page.wait_for_function(BRANCH_READY, timeout=300_000)
             page.wait_for_timeout(1500)  # let the last renders and the badge settle
             os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
-            page.screenshot(path=args.out, full_page=True)
+            if args.continuation:
+                top = page.locator(".diagram").first.bounding_box()
+                low = page.locator(".continuation").first.bounding_box()
+                clip = {"x": top["x"] - 10, "y": top["y"] - 60, "width": top["width"] + 20,
+                        "height": low["y"] + low["height"] - top["y"] + 70}
+                page.screenshot(path=args.out, full_page=True, clip=clip)
+            else:
+                page.screenshot(path=args.out, full_page=True)
             browser.close()
     finally:
         server.stop()
