@@ -161,26 +161,22 @@ def _event(run: _Run, br: _Branch, key: str, Xe, tau) -> bool:
     else:
         k = int(np.argmin(speed))
     side = "active" if orb.flank[k] == 1 else "reverse"
+    data = {"type": "impact", "impact": k}
     if key == "st":
-        run.add(orb, q, "stick_onset")
-        run.status = "stick_onset"
-        run.message = (f"onset of sticking at {where}: impact {k} on the pushing {side} flank "
-                       f"at t = {orb.t[k]:.10g} slows to v_stick; beyond, the gear sticks "
-                       "(continue_orbit(start=this) restarts on the orbit that sticks)")
-        run.bifurcation("stick_onset", q, orb, {"type": "impact", "impact": k,
-                                                "flank": int(orb.flank[k]),
-                                                "time": float(orb.t[k])},
-                        run.message, restart=("simulate", br, Xe, tau))
+        kind, restart = "stick_onset", "simulate"
+        data.update(flank=int(orb.flank[k]), time=float(orb.t[k]))
+        message = (f"onset of sticking at {where}: impact {k} on the pushing {side} flank "
+                   f"at t = {orb.t[k]:.10g} slows to v_stick; beyond, the gear sticks "
+                   "(continue_orbit(start=this) restarts on the orbit that sticks)")
     else:
-        run.add(orb, q, "grazing")
-        run.status = "grazing"
-        run.message = (f"grazing at {where}: impact {k} on the {side} flank at "
-                       f"t = {orb.t[k]:.10g} reaches zero relative velocity; beyond, the orbit "
-                       "loses it (continue_orbit(start=this) restarts without it)")
-        run.bifurcation("grazing", q, orb, {"type": "impact", "impact": k,
-                                            "wall": int(orb.flank[k]), "time": float(orb.t[k]),
-                                            "w": float(orb.w[k])},
-                        run.message, restart=("remove", br, Xe, tau))
+        kind, restart = "grazing", "remove"
+        data.update(wall=int(orb.flank[k]), time=float(orb.t[k]), w=float(orb.w[k]))
+        message = (f"grazing at {where}: impact {k} on the {side} flank at "
+                   f"t = {orb.t[k]:.10g} reaches zero relative velocity; beyond, the orbit "
+                   "loses it (continue_orbit(start=this) restarts without it)")
+    run.add(orb, q, kind)
+    run.status, run.message = kind, message
+    run.bifurcation(kind, q, orb, data, message, restart=(restart, br, Xe, tau))
     return True
 
 
