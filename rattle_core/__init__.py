@@ -17,7 +17,8 @@ from . import jitcache
 jitcache.refresh()
 
 from .analysis.classify import Classification, classify
-from .analysis.continuation import (Bifurcation, ContinuationResult, PeriodicOrbit,
+from .analysis.continuation import (Bifurcation, BifurcationCurve, ContinuationResult,
+                                    PeriodicOrbit, contact_bifurcation, continue_bifurcation,
                                     continue_orbit, find_orbit)
 from .analysis.overlays import contact_boundary, one_sided_impulse
 from .analysis.sections import impact_map, poincare
@@ -31,4 +32,5 @@ from .solver.trajectory import SOLVER_VERSION, SolverError, Trajectory, simulate
 __all__ = ["RattleParams", "Trajectory", "simulate", "excitation", "SolverError", "SOLVER_VERSION",
            "poincare", "impact_map", "classify", "Classification", "contact_boundary",
            "one_sided_impulse", "sweep", "SweepResult", "units", "continue_orbit", "find_orbit",
-           "PeriodicOrbit", "Bifurcation", "ContinuationResult"]
+           "PeriodicOrbit", "Bifurcation", "ContinuationResult", "continue_bifurcation",
+           "contact_bifurcation", "BifurcationCurve"]
