@@ -87,7 +87,7 @@ def sticking_text(cls: Any) -> str:
     amp_text = f", loop amplification 10^{amp:.1f}" if isinstance(amp, float) and math.isfinite(amp) else ""
     if kind == "chaos-through-sticking":
         if getattr(cls, "noisy", True):
-            return "chaos through sticking, vanishing-noise statistics"
+            return "chaos through sticking, statistics at this noise level"
         return "loop chosen by rounding: not resolvable (noise off)"
     if kind == "stick-locked" and cls.regime != "A":  # A never leaves the wall: nothing to lock
         period = f", period {cls.period}" if cls.period else ""

@@ -21,6 +21,7 @@ from .analysis.continuation import (Bifurcation, ContinuationResult, PeriodicOrb
                                     continue_orbit, find_orbit)
 from .analysis.overlays import contact_boundary, one_sided_impulse
 from .analysis.sections import impact_map, poincare
+from .batch.ensemble import NoiseSensitivity, Statistics, noise_sensitivity, statistics
 from .batch.sweep import SweepResult
 from .batch.sweep import sweep as sweep
 from .model import units
@@ -31,4 +32,5 @@ from .solver.trajectory import SOLVER_VERSION, SolverError, Trajectory, simulate
 __all__ = ["RattleParams", "Trajectory", "simulate", "excitation", "SolverError", "SOLVER_VERSION",
            "poincare", "impact_map", "classify", "Classification", "contact_boundary",
            "one_sided_impulse", "sweep", "SweepResult", "units", "continue_orbit", "find_orbit",
-           "PeriodicOrbit", "Bifurcation", "ContinuationResult"]
+           "PeriodicOrbit", "Bifurcation", "ContinuationResult", "statistics", "Statistics",
+           "noise_sensitivity", "NoiseSensitivity"]

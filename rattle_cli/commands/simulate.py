@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
                        f"allowed range [1, {MAX_HISTORY_ROWS}]")
     params, phys = build_params(args)
     tr = simulate(params, periods=args.periods, transient=args.transient, x0=args.x0, v0=args.v0,
-                  lyapunov=True, noise=not args.strict)
+                  lyapunov=True)
     m = meta(params, phys)
     m.update(periods=args.periods, transient=args.transient, x0=tr.settings["x0"], v0=args.v0)
     if imp_path is not None:
