@@ -7,26 +7,29 @@ How a session is built (``app.main.create_app`` → :class:`app.dashboard.Dashbo
     session.Session          keeps the state consistent: the URL (pn.state.location.sync),
                              the physical-units link (physical.py), one run per change, the
                              last good values back when a change cannot run; SessionJobs
-    views (pn.viewable.Viewer), each given the state and, if it computes in the background,
-    the session's jobs; they never refer to one another:
-        controls.Controls            sidebar: presets, parameters, advanced, exports
-        units_view.UnitsView         physical-units card and the SI table
-        explorer.RegimeView          regime badge and metrics
-        time_history.TimeHistoryView x(t) (Bokeh, for the redraw budget)
-        explorer.SectionView         Poincaré / impact map (HoloViews, datashader)
-        diagram.DiagramView          bifurcation diagram (HoloViews, background sweeps)
-        sound_view.SoundView         rattle sound card
-        maps_view.MapsView           Maps tab (background maps)
-    jobs.JobPool / work.py   background work in killable worker processes, with time limits
-    core.py                  everything taken from rattle_core beyond its top-level names
-    labels.py                words, colours and escaped HTML; plots.py, widgets.py: helpers
+    views/ (pn.viewable.Viewer), each given the state and, if it computes in the background,
+    the session's jobs:
+        controls.Controls              sidebar: presets, parameters, advanced, exports
+        units.UnitsView                physical-units card and the SI table
+        explorer.RegimeView            regime badge and metrics
+        time_history.TimeHistoryView   x(t) (Bokeh, for the redraw budget)
+        explorer.SectionView           Poincaré / impact map (HoloViews, datashader)
+        diagram.DiagramView            bifurcation diagram (HoloViews, background sweeps)
+        continuation.ContinuationView  "Continue this orbit": the branch and its multipliers
+        sound.SoundView                rattle sound card
+        maps.MapsView                  Maps tab (background maps)
+    work/    jobs.JobPool and tasks.py: background work in killable worker processes, with
+             time limits; branch.py, diagram_data.py: what the continuation and the diagram
+             compute and load; threads.py: the plot lock and later() for stream callbacks
+    ui/      labels.py: words, colours and escaped HTML; plots.py, widgets.py: helpers
+    core.py  everything taken from rattle_core beyond its top-level names
 
 Adding a part (the continuation of issue 11, say) takes three steps:
 
 1. add the parameters it needs to :class:`~app.state.ExplorerState`, with bounds and labels
    (they join the URL by themselves; add them to ``RUN_KEYS`` only if they change the run);
-2. write a ``pn.viewable.Viewer`` taking ``state`` (and ``jobs``, for background work: submit a
-   picklable function of ``work.py`` under a kind of its own, with a time limit) that draws
+2. write a ``pn.viewable.Viewer`` in ``views/`` taking ``state`` (and ``jobs``, for background
+   work: submit a picklable function of ``work/`` under a kind of its own, with a time limit) that draws
    from ``state.result`` and writes only to the state;
 3. place it in :class:`~app.dashboard.Dashboard` (a tab, or beside the plots).
 

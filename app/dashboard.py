@@ -12,17 +12,17 @@ from typing import Any
 
 import panel as pn
 
-from .continuation_view import ContinuationView
-from .controls import Controls
-from .diagram import DiagramView
-from .explorer import RegimeView, SectionView
-from .maps_view import MapsView
-from .threads import HV_LOCK
+from .views.continuation import ContinuationView
+from .views.controls import Controls
+from .views.diagram import DiagramView
+from .views.explorer import RegimeView, SectionView
+from .views.maps import MapsView
+from .work.threads import HV_LOCK
 from .session import Session
-from .sound_view import SoundView
-from .time_history import TimeHistoryView
-from .units_view import UnitsView
-from .widgets import message
+from .views.sound import SoundView
+from .views.time_history import TimeHistoryView
+from .views.units import UnitsView
+from .ui.widgets import message
 
 SIDEBAR_WIDTH = 380
 #: Every live dashboard (weakly held): a closed session's must disappear from here.

@@ -31,10 +31,12 @@ import panel as pn
 
 if __package__ in (None, ""):  # run as a script by `panel serve app/main.py`
     sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-    from app import jobs, maps_view, work
+    from app.views import maps as maps_view
+    from app.work import jobs, tasks
     from app.dashboard import Dashboard
 else:  # imported as a package: `app` in a checkout, `rattle_app` when installed
-    from . import jobs, maps_view, work
+    from .views import maps as maps_view
+    from .work import jobs, tasks
     from .dashboard import Dashboard
 
 log = logging.getLogger("app")
@@ -101,7 +103,7 @@ def warm_up(pool: bool = True) -> None:
 
         from rattle_core import RattleParams, classify, simulate
 
-        from .diagram_data import _assets
+        from .work.diagram_data import _assets
         tr = simulate(RattleParams(lam=3.3, amplitudes=(1.0, 0.25), phases_deg=(0.0, -135.0)),
                       periods=50, transient=10, lyapunov=True)
         classify(tr)
@@ -109,7 +111,7 @@ def warm_up(pool: bool = True) -> None:
         dynspread(datashade(pts, dynamic=False, width=50, height=50), dynamic=False)
         _assets()
         if pool:
-            jobs.pool(warm=work.warm_up)  # the workers load the compiled kernels before a job
+            jobs.pool(warm=tasks.warm_up)  # the workers load the compiled kernels before a job
         _warm = True
 
 

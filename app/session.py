@@ -15,7 +15,7 @@ message beside its control and the URL shows the value kept; unknown keys and em
 get a message too. The messages are plain text (the views escape them).
 
 Background work goes through :class:`SessionJobs`: the server's job pool
-(:mod:`app.jobs`), with results moved onto this session's document. :meth:`Session.destroy`
+(:mod:`app.work.jobs`), with results moved onto this session's document. :meth:`Session.destroy`
 cancels the jobs and lets go of everything, so a closed session is garbage.
 """
 from __future__ import annotations
@@ -33,11 +33,11 @@ import param
 
 from rattle_core import SolverError, classify, simulate
 
-from . import jobs as jobs_module
+from .work import jobs as jobs_module
 from .state import (PHYSICAL_KEYS, RUN_KEYS, URL_KEYS, ExplorerState, Run, rattle_params,
                              rejection)
 from .physical import LinkError, link, run_physical
-from .threads import HV_LOCK
+from .work.threads import HV_LOCK
 
 log = logging.getLogger(__name__)
 
@@ -323,7 +323,7 @@ class Session:
         pairs = urllib.parse.parse_qsl((search or "")[1:], keep_blank_values=True)
         unknown = [k for k, _ in pairs if k not in names]
         if unknown:
-            from .labels import short
+            from .ui.labels import short
             s.say("url", f"URL: unknown key{'s' if len(unknown) > 1 else ''} "
                             f"{', '.join(short(k) for k in unknown[:5])} ignored.")
         for key, value in pairs:

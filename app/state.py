@@ -288,7 +288,7 @@ def rejection(state: param.Parameterized, name: str, value: Any, reason: str = "
 
 
 def _show(value: Any) -> str:
-    from .labels import short
+    from .ui.labels import short
     return short(value)
 
 

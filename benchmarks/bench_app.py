@@ -93,9 +93,9 @@ def main() -> int:
     print(f"warm-up (imports, numba, datashader, shipped diagrams): {time.perf_counter() - t0:.2f} s")
 
     from app.dashboard import Dashboard
-    from app.jobs import JobPool
+    from app.work.jobs import JobPool
     from app.state import rattle_params
-    from app.work import warm_up as warm_worker
+    from app.work.tasks import warm_up as warm_worker
 
     pool = JobPool(size=2, warm=warm_worker)
     cases = [

@@ -140,8 +140,8 @@ def dashboard_server():
 @pytest.fixture(scope="session")
 def job_pool():
     """Worker processes for the background jobs of the dashboards built by the tests."""
-    from app.jobs import JobPool
-    from app.work import warm_up
+    from app.work.jobs import JobPool
+    from app.work.tasks import warm_up
 
     pool = JobPool(size=2, warm=warm_up)
     yield pool

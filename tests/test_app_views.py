@@ -16,9 +16,9 @@ import pandas as pd
 import pytest
 from conftest import wait_for
 
-from app import diagram_data as dd
-from app import labels, plots
-from app.controls import impacts_table
+from app.work import diagram_data as dd
+from app.ui import labels, plots
+from app.views.controls import impacts_table
 from rattle_core import RattleParams, classify, simulate, units
 from rattle_core.analysis.overlays import contact_boundary
 from rattle_core.model.excitation import TWO_PI, excitation
@@ -171,7 +171,7 @@ def test_rejected_value_keeps_the_view_and_the_slider_range(dash):
 
 def test_click_on_the_section_starts_the_gear_there(dash):
     """A click on the Poincaré map sets (x₀, ẋ₀) at t₀ = strobe phase; outside the teeth it is refused."""
-    from app.explorer import start_from_section
+    from app.views.explorer import start_from_section
     s = dash.state
     s.strobe = 90.0
     p = s.result.params
@@ -294,7 +294,7 @@ def test_skipped_model_walks_leave_the_document_exact(dash):
 def test_badge_says_which_kind_of_answer_motion_through_sticking_is(params, noise, sticking, text):
     """The badge tells a robust stick-locked orbit (exact) from chaos through sticking
     (statistics at the run's noise) and from a strict run whose loop rounding chose."""
-    from app.labels import badge_html
+    from app.ui.labels import badge_html
     cls = classify(simulate(params if noise else params.replace(noise=0.0), periods=3000,
                             transient=500, lyapunov=True))
     html = badge_html(cls)

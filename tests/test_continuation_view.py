@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from conftest import wait_for
 
-from app.branch import continue_both_ways, from_job
-from app.continuation_view import branch_overlay, multipliers_element
+from app.work.branch import continue_both_ways, from_job
+from app.views.continuation import branch_overlay, multipliers_element
 from app.state import PRESETS
 from rattle_core import RattleParams
 from rattle_core.analysis.continuation import c_orbit

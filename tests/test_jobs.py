@@ -11,8 +11,8 @@ import time
 import numpy as np
 import pytest
 
-from app import work
-from app.jobs import JobPool
+from app.work import tasks
+from app.work.jobs import JobPool
 from rattle_core import RattleParams, sweep
 
 pytestmark = pytest.mark.timeout(300)
@@ -48,7 +48,7 @@ def test_a_diagram_job_returns_the_sweep_with_progress(pool):
     base = RattleParams(lam=2.0, amplitudes=(1.0, 0.25), phases_deg=(0.0, -135.0))
     values = np.linspace(1.0, 3.0, 40)
     out = Outcome()
-    pool.submit(("s", "diagram"), work.diagram, (base, "lam", values, 100, 30), {"use_cache": False},
+    pool.submit(("s", "diagram"), tasks.diagram, (base, "lam", values, 100, 30), {"use_cache": False},
                 **out.kwargs())
     assert out.done.wait(120) and out.error is None
     ref = sweep(base, "lam", values, transient=100, record=30)
@@ -62,7 +62,7 @@ def test_a_job_past_its_time_limit_is_killed_and_others_still_run(pool):
     hung, quick = Outcome(), Outcome()
     t0 = time.monotonic()
     pool.submit(("a", "diagram"), time.sleep, (1000,), time_limit=3.0, **hung.kwargs())
-    pool.submit(("b", "diagram"), work.diagram, (RattleParams(lam=2.0), "lam", np.linspace(1, 2, 10), 50, 20),
+    pool.submit(("b", "diagram"), tasks.diagram, (RattleParams(lam=2.0), "lam", np.linspace(1, 2, 10), 50, 20),
                 {"use_cache": False}, **quick.kwargs())
     assert quick.done.wait(60) and quick.error is None
     assert time.monotonic() - t0 < 3.0  # did not wait for the hung job

@@ -90,7 +90,7 @@ def test_bad_requests_show_a_message_naming_the_limit(dash, setup, where, messag
 
 def test_settings_refuse_values_outside_their_bounds(dash):
     """Points per axis outside [2, 400] are refused by param, with the message beside the box."""
-    from app.widgets import set_value
+    from app.ui.widgets import set_value
     m = dash.maps.settings
     assert not set_value(m, "x_num", 1)
     assert m.x_num == 60 and "x points = 1 is outside the allowed range; allowed [2, 400]" in m.messages["x_num"]
@@ -162,7 +162,7 @@ def test_physical_map_click_lands_on_the_clicked_rpm_and_torque(dash):
 def test_serve_sets_where_maps_run(monkeypatch):
     """serve(scheduler=...) is where maps run; there is no field for it on the page."""
     import app.main
-    import app.maps_view as mv
+    import app.views.maps as mv
     monkeypatch.setattr(app.main.pn, "serve", lambda *a, **k: None)
     monkeypatch.setattr(app.main, "warm_up", lambda: None)
     monkeypatch.setattr(app.main, "_answers", lambda *a: True)

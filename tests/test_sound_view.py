@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy.io import wavfile
 
-from app import sound_view
+from app.views import sound as sound_view
 from rattle_core.model.excitation import TWO_PI
 from rattle_core.analysis.sound import (DEFAULT_EXCITATION_HZ, DEFAULT_TAIL, PEAK, parse_modes, synthesize,
                                to_int16)

@@ -117,7 +117,7 @@ def test_twenty_closed_sessions_are_collected(browser, dashboard_server):
 
 def test_closing_the_page_cancels_its_background_work(browser, dashboard_server):
     """A session's running map is cancelled when its page closes."""
-    from app import jobs
+    from app.work import jobs
     context = browser.new_context(viewport={"width": 1400, "height": 1000})
     p = context.new_page()
     open_dashboard(p, dashboard_server)

@@ -31,12 +31,12 @@ import numpy as np
 import panel as pn
 import param
 
-from .core import (DEFAULT_EXCITATION_HZ, DEFAULT_MODES, DEFAULT_SAMPLE_RATE, DEFAULT_TAIL,
+from ..core import (DEFAULT_EXCITATION_HZ, DEFAULT_MODES, DEFAULT_SAMPLE_RATE, DEFAULT_TAIL,
                    EXCITATION_HZ_RANGE, TWO_PI, HousingMode, PhysicalParams, check_range,
                    parse_modes, synthesize, write_wav)
-from .state import ExplorerState
-from .labels import message_html, what_to_hear
-from .plots import first_periods
+from ..state import ExplorerState
+from ..ui.labels import message_html, what_to_hear
+from ..ui.plots import first_periods
 
 log = logging.getLogger(__name__)
 

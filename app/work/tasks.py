@@ -2,7 +2,7 @@
 
 Each function takes plain values (a ``RattleParams``, arrays, numbers) and returns plain
 data, since both cross a process boundary. Progress and cancellation reach the running sweep
-through :func:`app.jobs.report` and :func:`app.jobs.cancelled`. Sweeps and maps go through
+through :func:`app.work.jobs.report` and :func:`app.work.jobs.cancelled`. Sweeps and maps go through
 the core's disk cache, so a diagram or map asked for twice is computed once.
 """
 from __future__ import annotations
@@ -36,7 +36,7 @@ def diagram(params: RattleParams, name: str, values: np.ndarray, transient: int,
     ``swept``, ``regime``, ``chaotic`` (one per value run), ``cancelled``.
     """
     if use_cache:
-        from .core import cached_sweep as run
+        from ..core import cached_sweep as run
     else:
         from rattle_core import sweep as run
     res = run(params, name, np.asarray(values, dtype=np.float64), transient=transient,
@@ -71,7 +71,7 @@ def regime_map(params: RattleParams, phys: Any, x_name: str, x_values: np.ndarra
 
     ``scheduler`` comes from the server's command line only, never from a page.
     """
-    from .core import run_map
+    from ..core import run_map
     executor = _client(scheduler) if scheduler else None
     kwargs = {"executor": executor} if executor is not None else {}
     with executor.as_current() if executor is not None else contextlib.nullcontext():

@@ -6,8 +6,8 @@ needs) and writes only to the state: a click on the section starts the gear ther
 structure from one run to the next, so an update replaces glyph data and nothing else. The
 section's dense clouds are rasterised and spread with datashader (HoloViews ``datashade``
 and ``dynspread``) over the range shown, which follows the data until the user zooms
-(:class:`app.plots.Zoom`); a zoom re-rasterises at the new range. The time history is in
-:mod:`app.time_history`.
+(:class:`app.ui.plots.Zoom`); a zoom re-rasterises at the new range. The time history is in
+:mod:`app.views.time_history`.
 """
 from __future__ import annotations
 
@@ -20,13 +20,13 @@ import panel as pn
 import param
 from holoviews.operation.datashader import datashade, dynspread
 
-from .core import excitation
-from .labels import MARK_COLOR, badge_html, metrics_rows, table_html
-from .plots import (TOOLS, HoloViewsPane, Zoom, caption, file_stem, padded, save_as,
+from ..core import excitation
+from ..ui.labels import MARK_COLOR, badge_html, metrics_rows, table_html
+from ..ui.plots import (TOOLS, HoloViewsPane, Zoom, caption, file_stem, padded, save_as,
                     section_points, weak_hook)
-from .state import ExplorerState
-from .threads import later
-from .widgets import Choice, deferred, message
+from ..state import ExplorerState
+from ..work.threads import later
+from ..ui.widgets import Choice, deferred, message
 
 SECTION_OPTIONS = {"Poincaré (x, ẋ)": "absolute", "relative (x−y, ẋ−ẏ)": "relative",
                    "impact map": "impact"}

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from .core import REGIME_CODES, REGIME_COLOURS, REGIMES
+from ..core import REGIME_CODES, REGIME_COLOURS, REGIMES
 
 #: Regime letter → colour (maps, badge, legends).
 REGIME_COLOR = dict(REGIME_COLOURS)

@@ -29,15 +29,15 @@ import param
 from bokeh.models import Span
 from holoviews.operation.datashader import datashade, dynspread
 
-from . import work
-from .diagram_data import (RECORD, TRANSIENT, ZOOM_VALUES, Diagram, current_value, diagram_key,
-                           from_work, marks, one_sided, request, shipped)
-from .continuation_view import branch_overlay
-from .labels import ACTIVE_COLOR, CHAOS_COLOR, MARK_COLOR, ONSET_COLOR, REVERSE_COLOR, num
-from .plots import TOOLS, HoloViewsPane, Zoom, caption, file_stem, padded, save_as, weak_hook
-from .state import ExplorerState
-from .threads import later
-from .widgets import Choice, deferred, message, set_value
+from ..work import tasks
+from ..work.diagram_data import (RECORD, TRANSIENT, ZOOM_VALUES, Diagram, current_value,
+                                 diagram_key, from_work, marks, one_sided, request, shipped)
+from .continuation import branch_overlay
+from ..ui.labels import ACTIVE_COLOR, CHAOS_COLOR, MARK_COLOR, ONSET_COLOR, REVERSE_COLOR, num
+from ..ui.plots import TOOLS, HoloViewsPane, Zoom, caption, file_stem, padded, save_as, weak_hook
+from ..state import ExplorerState
+from ..work.threads import later
+from ..ui.widgets import Choice, deferred, message, set_value
 
 OPTIONS = {"Ĩ vs Λ": "lam", "Ĩ vs φ₂": "phi2"}
 UNITS_OPTIONS = {"I vs engine speed": "rpm", "Ĩ vs φ₂": "phi2"}
@@ -148,7 +148,7 @@ class DiagramView(pn.viewable.Viewer):
         self.status.object = _text(f"Computing {what}: {len(values)} values in the background…")
         self.progress.param.update(value=0, visible=True)
         try:
-            self.jobs.submit("diagram", work.diagram, (base, name, values, TRANSIENT, RECORD),
+            self.jobs.submit("diagram", tasks.diagram, (base, name, values, TRANSIENT, RECORD),
                              time_limit=60.0,
                              on_progress=lambda f: self._progress(key, f),
                              on_done=lambda out: self._done(key, req, out, merge),
@@ -265,7 +265,7 @@ class DiagramView(pn.viewable.Viewer):
         return self.zoom.apply(segs * text * paths, xlim, ylim)
 
     def _branch(self, branch: Any = None, marks_revision: int = 0) -> hv.Overlay:
-        """The continued branch (``state.branch``), drawn by :mod:`app.continuation_view`."""
+        """The continued branch (``state.branch``), drawn by :mod:`app.views.continuation`."""
         return self.zoom.apply(branch_overlay(branch, self._name), *self._limits())
 
     def _name_plot(self, plot: Any, element: Any) -> None:

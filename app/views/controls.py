@@ -1,7 +1,7 @@
 """The sidebar: the paper's presets, the model's parameters, advanced settings and exports.
 
 A ``pn.viewable.Viewer`` over the session's state: every control writes one state parameter
-(:mod:`app.widgets`), a preset writes several in one batch, and the phase-convention switch
+(:mod:`app.ui.widgets`), a preset writes several in one batch, and the phase-convention switch
 converts φ₂ and the extra harmonics so the model stays the same
 (:meth:`ExplorerState.set_phase_convention`). The impacts export is the CLI's table
 (``rattle simulate --impacts``): the same columns, flank as +1/−1, SI columns in physical
@@ -17,10 +17,10 @@ import pandas as pd
 import panel as pn
 import param
 
-from .core import impacts_frame
-from .state import PRESETS, ExplorerState, format_harmonics, parse_harmonics, preset_values
-from .plots import file_stem
-from .widgets import Field, _label_html, message
+from ..core import impacts_frame
+from ..state import PRESETS, ExplorerState, format_harmonics, parse_harmonics, preset_values
+from ..ui.plots import file_stem
+from ..ui.widgets import Field, _label_html, message
 
 SLIDERS = ("lam", "r", "j", "h2", "phi2")
 ADVANCED = ("periods", "shown", "transient", "v_stick", "x0", "v0", "t0", "harmonics", "strobe")

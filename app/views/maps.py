@@ -2,7 +2,7 @@
 
 A ``pn.viewable.Viewer`` over the state with its own request settings (:class:`MapSettings`:
 axes, ranges, points, periods, the field shown), whose bounds validate them. Compute runs
-:func:`rattle_core.store.requests.run_map` as this session's ``map`` job (:mod:`app.jobs`): in a worker
+:func:`rattle_core.store.requests.run_map` as this session's ``map`` job (:mod:`app.work.jobs`): in a worker
 process, bounded in time, cancelled by Cancel, by a new request and when the session ends,
 from the disk cache when the same map ran before. Maps run on the server's cores, or on the
 Dask scheduler given on the server's command line (``rattle serve --scheduler``,
@@ -26,13 +26,13 @@ import numpy as np
 import panel as pn
 import param
 
-from . import work
-from .core import REGIME_CODES, excitation, paper_phi2_to_core, plan_map
-from .state import ExplorerState, MapSettings
-from .threads import HV_LOCK, later
-from .labels import REGIME_COLOR, map_legend, text_html
-from .plots import TOOLS, HoloViewsPane, caption, file_stem, save_as
-from .widgets import Choice, Field, message
+from ..work import tasks
+from ..core import REGIME_CODES, excitation, paper_phi2_to_core, plan_map
+from ..state import ExplorerState, MapSettings
+from ..work.threads import HV_LOCK, later
+from ..ui.labels import REGIME_COLOR, map_legend, text_html
+from ..ui.plots import TOOLS, HoloViewsPane, caption, file_stem, save_as
+from ..ui.widgets import Choice, Field, message
 
 AXES = {"lam": "Λ", "r": "r", "j": "j", "h2": "H₂/H₁", "phi2": "φ₂ [°]",
         "rpm": "engine speed [rpm]", "drag_torque": "drag torque C [N·m]"}
@@ -219,7 +219,7 @@ class MapsView(pn.viewable.Viewer):
                                        f"= {n} points {where}…")
         args = (req["params"], req["phys"], req["x_name"], req["core"]["x"], req["y_name"],
                 req["core"]["y"], req["transient"], req["record"], _scheduler)
-        self.job = self.jobs.submit("map", work.regime_map, args, time_limit=300.0,
+        self.job = self.jobs.submit("map", tasks.regime_map, args, time_limit=300.0,
                                      on_progress=lambda f: self._progress(req, f),
                                      on_done=lambda r: self._done(req, r),
                                      on_error=lambda msg: self._error(req, msg))

@@ -16,7 +16,7 @@ from typing import Any
 import panel as pn
 import param
 
-from .state import rejection
+from ..state import rejection
 from .labels import message_html
 
 log = logging.getLogger(__name__)

@@ -18,7 +18,7 @@ import numpy as np
 
 from rattle_core import RattleParams
 
-from .core import (TWO_PI, contact_boundary, core_phi2_to_paper, list_assets, load_asset,
+from ..core import (TWO_PI, contact_boundary, core_phi2_to_paper, list_assets, load_asset,
                    paper_phi2_to_core, units)
 
 #: Default ranges (axis units) and values per diagram; zoomed regions get ZOOM_VALUES.

@@ -15,11 +15,11 @@ from typing import Any
 import panel as pn
 import param
 
-from .core import physical_table, units
-from .state import PHYSICAL_KEYS, ExplorerState
-from .labels import table_html
-from .physical import SOLVE_LABELS, excitation_values
-from .widgets import Choice, Field, _label_html, message, set_value
+from ..core import physical_table, units
+from ..state import PHYSICAL_KEYS, ExplorerState
+from ..ui.labels import table_html
+from ..physical import SOLVE_LABELS, excitation_values
+from ..ui.widgets import Choice, Field, _label_html, message, set_value
 
 EXCITATION_OPTIONS = {"θ_k: displacement [rad]": "displacement",
                       "α_k: acceleration [rad/s²]": "acceleration"}

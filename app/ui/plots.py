@@ -19,10 +19,10 @@ import holoviews as hv
 import numpy as np
 import panel as pn
 
-from .core import TWO_PI
-from .state import display_phases
+from ..core import TWO_PI
+from ..state import display_phases
 from .labels import num
-from .threads import HV_LOCK, later
+from ..work.threads import HV_LOCK, later
 
 #: Samples per forcing period of the time history (impact instants are added exactly).
 POINTS_PER_PERIOD = 160

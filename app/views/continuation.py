@@ -2,7 +2,7 @@
 
 :class:`ContinuationView` sits under the bifurcation diagram. On a periodic regime its button
 records in the state where the orbit is taken (``continuation``, ``cont_from``: both in the
-URL), and the view runs :func:`app.branch.continue_both_ways` as the session's
+URL), and the view runs :func:`app.work.branch.continue_both_ways` as the session's
 ``continuation`` job (progress, cancel, killed with the session; disk-cached, so a reopened
 link redraws the branch from the cache). The result goes to ``state.branch``, which the
 diagram draws with :func:`branch_overlay`: stable parts solid, unstable parts dashed,
@@ -24,12 +24,12 @@ import pandas as pd
 import panel as pn
 import param
 
-from .branch import FIND_TRANSIENT, Branch, from_job, continue_both_ways, is_periodic
-from .core import paper_phi2_to_core
-from .diagram_data import current_value, diagram_key, full_range
-from .state import ExplorerState
-from .plots import HoloViewsPane
-from .widgets import message
+from ..work.branch import FIND_TRANSIENT, Branch, from_job, continue_both_ways, is_periodic
+from ..core import paper_phi2_to_core
+from ..work.diagram_data import current_value, diagram_key, full_range
+from ..state import ExplorerState
+from ..ui.plots import HoloViewsPane
+from ..ui.widgets import message
 
 BRANCH_COLOR = "#6c3483"
 STABLE_COLOR, UNSTABLE_COLOR = "#1e8449", "#c0392b"

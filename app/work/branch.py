@@ -54,7 +54,7 @@ class Branches:
 def request(params: Any, phys: Any, name: str, bounds: tuple[float, float],
             start: dict) -> dict:
     """What the branches depend on; its canonical hash is the cache key."""
-    from .core import CONTINUATION_VERSION, SOLVER_VERSION
+    from ..core import CONTINUATION_VERSION, SOLVER_VERSION
     return {"kind": "continuation", "params": params.canonical(),
             "physical": dataclasses.asdict(phys) if phys is not None else None,
             "param": name, "bounds": [float(bounds[0]), float(bounds[1])],
@@ -74,11 +74,11 @@ def continue_both_ways(params: Any, phys: Any, name: str, bounds: tuple[float, f
     ``start`` holds ``x0``, ``v0``, ``t0`` and ``transient`` of the simulation that finds the
     first orbit.  Raises ``ContinuationError`` when the response there is not periodic.
     """
-    from .core import cached
+    from ..core import cached
     from .jobs import cancelled, report
 
     def compute() -> Branches:
-        from .core import continue_orbit, find_orbit
+        from ..core import continue_orbit, find_orbit
         orbit = find_orbit(params, x0=start.get("x0"), v0=float(start.get("v0", 0.0)),
                            t0=float(start.get("t0", 0.0)), transient=int(start["transient"]))
         arrays, meta = {}, {"start": orbit.summary()}
@@ -113,7 +113,7 @@ def continue_both_ways(params: Any, phys: Any, name: str, bounds: tuple[float, f
 
 
 def _save(path: Path, result: Branches, key: str | None = None, request: Any = None) -> None:
-    from .core import atomic_savez
+    from ..core import atomic_savez
     meta = {**result.meta, "key": key, "request": request}
     atomic_savez(Path(path), {**result.arrays, "meta": np.array(json.dumps(meta))})
 
@@ -196,7 +196,7 @@ class Branch:
 def to_axis(name: str, phases: str, phys: Any, values: np.ndarray,
             impulse: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     """Continuation values (Λ, core φ₂ in degrees, rpm) and impulses in the diagram's units."""
-    from .core import core_phi2_to_paper, units
+    from ..core import core_phi2_to_paper, units
     from .diagram_data import wrap180
     v = np.asarray(values, dtype=np.float64)
     if name == "phi2":
@@ -209,7 +209,7 @@ def to_axis(name: str, phases: str, phys: Any, values: np.ndarray,
 def from_job(name: str, phases: str, phys: Any, key: tuple, start: float, out: dict) -> Branch:
     """A :class:`Branch` from :func:`continue_both_ways`'s output."""
     import pandas as pd
-    from .core import ContinuationResult
+    from ..core import ContinuationResult
     arrays, meta = out["arrays"], out["meta"]
     points, impacts, marks = [], [], []
     for d in DIRECTIONS:

@@ -25,9 +25,9 @@ import param
 from bokeh.models import (ColumnDataSource, DataRange1d, HoverTool, Legend, LegendItem, SaveTool)
 from bokeh.plotting import figure
 
-from .state import ExplorerState
-from .labels import ACTIVE_COLOR, GEAR_COLOR, REVERSE_COLOR, STICK_COLOR, TOOTH_COLOR
-from .plots import caption, file_stem, time_history_data
+from ..state import ExplorerState
+from ..ui.labels import ACTIVE_COLOR, GEAR_COLOR, REVERSE_COLOR, STICK_COLOR, TOOTH_COLOR
+from ..ui.plots import caption, file_stem, time_history_data
 
 MOTION = ("t", "x", "y", "yj", "tooth_lo", "tooth_hi")
 IMPACTS = ("t", "x", "impulse")
