@@ -177,11 +177,15 @@ def test_a_known_noise_sensitive_case_is_flagged():
 
 
 def test_a_periodic_orbit_is_not_flagged():
-    """The E orbit at Λ = 2.5 is the same at every noise level: not sensitive, zero widths."""
+    """The E orbit at Λ = 2.5 is the same at every noise level: not sensitive; exact (zero
+    width) where the noise is below the period test's resolution, a tiny width at 1e-4."""
     rep = noise_sensitivity(RattleParams(lam=2.5), levels=(1e-12, 1e-8, 1e-4), runs=4,
                             periods=200, transient=1500)
     assert not rep.sensitive, rep.reasons
-    assert (rep.table["mean_active_impulse_ci95"] == 0).all()
+    t = rep.table
+    assert list(t["attractor"]) == ["E (period 1)"] * 3
+    assert (t["mean_active_impulse_ci95"][:2] == 0).all()
+    assert 0 < t["mean_active_impulse_ci95"][2] < 1e-3 * t["mean_active_impulse"][2]
 
 
 def test_the_verdict_follows_the_intervals():
@@ -230,3 +234,22 @@ def test_statistics_keeps_within_the_period_budget():
     with pytest.raises(ValueError, match="levels"):
         noise_sensitivity(FIG7, levels=(1e-8, 0.9))
 
+
+
+def test_batch_means_of_one_run():
+    """One chaotic run: each statistic is the run's own value with a finite positive half-width
+    that covers the ensemble mean of other runs within 99 %; a periodic run's is exact."""
+    from rattle_core import classify
+    from rattle_core.analysis.statistics import batch_means
+    tr = simulate(FIG7, periods=4000, transient=300)
+    cls = classify(tr)
+    bm = batch_means(tr, cls)
+    assert bm["mean_active_impulse"].value == cls.mean_impulse_active
+    ens = statistics(FIG7, runs=8, periods=4000, transient=300, seed=50)
+    for key in ("impacts_per_period", "mean_active_impulse", "intensity"):
+        e = bm[key]
+        assert 0 < e.ci95 < 0.1 * e.value
+        assert abs(e.value - getattr(ens, key).value) <= 2.576 / 1.96 * math.hypot(
+            e.ci95, getattr(ens, key).ci95), key
+    periodic = simulate(RattleParams(lam=1.2), periods=200, transient=2000)
+    assert all(v.ci95 == 0.0 for v in batch_means(periodic).values())

@@ -210,3 +210,45 @@ def sensitivity_verdict(rows: list[dict]) -> tuple[bool, list[str]]:
                 reasons.append(f"{words} {np.min(v):.3g}–{np.max(v):.3g} over noise "
                                f"{rows[0]['noise']:g}…{rows[-1]['noise']:g}")
     return bool(reasons), reasons
+
+
+def batch_means(tr, classification=None, blocks: int = 10) -> dict[str, Estimate]:
+    """The four statistics of one run, each with a 95 % interval from its batch means.
+
+    The recorded window is cut into ``blocks`` equal spans of whole periods; the statistics of
+    each span are near-independent for a chaotic run (its correlations die out within a few
+    periods), so ``t₀.₉₇₅,ₙ₋₁ s/√n`` over the spans is the run's own uncertainty.  A periodic
+    run's statistics are exact (half-width 0).  Sweeps, maps and the dashboard's metrics use
+    this single-run interval; :func:`~rattle_core.batch.ensemble.statistics` measures the
+    scatter between independent runs instead.
+    """
+    from .classify import classify
+    cls = classification if classification is not None else classify(tr)
+    whole = {
+        "impacts_per_period": cls.impacts_per_period,
+        "mean_active_impulse": cls.mean_impulse_active,
+        "mean_reverse_impulse": cls.mean_impulse_reverse,
+        "intensity": cls.intensity,
+    }
+    n_periods = int(round(tr.periods))
+    blocks = min(int(blocks), n_periods)
+    if cls.period > 0 or blocks < 2:
+        return {k: Estimate(float(v), 0.0 if cls.period > 0 else math.inf, 1)
+                for k, v in whole.items()}
+    edges = tr.t_start + (tr.t_end - tr.t_start) * np.arange(blocks + 1) / blocks
+    which = np.clip(np.searchsorted(edges, tr.impact_t, side="right") - 1, 0, blocks - 1)
+    per = n_periods / blocks
+    vals: dict[str, list[float]] = {k: [] for k in STATISTICS}
+    imp, fl = np.abs(tr.impact_impulse), tr.impact_flank
+    for b in range(blocks):
+        sel = which == b
+        act, rev = imp[sel & (fl == 1)], imp[sel & (fl == -1)]
+        vals["impacts_per_period"].append(np.count_nonzero(sel) / per)
+        vals["mean_active_impulse"].append(act.mean() if act.size else math.nan)
+        vals["mean_reverse_impulse"].append(rev.mean() if rev.size else math.nan)
+        vals["intensity"].append(float(np.sum(tr.impact_impulse[sel] ** 2)) / per)
+    out = {}
+    for k, v in vals.items():
+        e = estimate(v)
+        out[k] = Estimate(float(whole[k]), e.ci95, e.n)
+    return out

@@ -77,7 +77,8 @@ class Statistics:
         import pandas as pd
         rows = []
         for a in self.attractors:
-            row = {"attractor": a.label, "runs": len(a.runs), "run_ids": " ".join(map(str, a.runs))}
+            row = {"noise": self.params.noise, "attractor": a.label, "runs": len(a.runs),
+                   "run_ids": " ".join(map(str, a.runs))}
             for k in STATISTICS:
                 row[k] = a.estimates[k].value
                 row[k + "_ci95"] = a.estimates[k].ci95

@@ -61,7 +61,12 @@ class SweepResult:
         One row per recorded impact: value, impulse, flank, phase.
     summary : DataFrame
         One row per value: value, regime, period, n_active, n_reverse, active_per_period,
-        reverse_per_period, chaotic, lyapunov, stick_fraction, intensity, status.
+        reverse_per_period, chaotic, lyapunov, stick_fraction, intensity, sticking,
+        loop_amplification, status.  Each value is one run of ``record`` periods: a periodic
+        value's numbers are exact, a chaotic value's are one sample, whose 95 % half-width is
+        about 2 × 3 % × √(4000/record) of the mean impulse and intensity (measured at the
+        paper's Figure 7; docs/model.md, "What the statistics mean").  For intervals use
+        :func:`~rattle_core.batch.ensemble.statistics` at the values that matter.
     cancelled : bool
         True when the caller cancelled; then only the values done are present.
     from_cache : bool
