@@ -3,7 +3,7 @@
 Layers, each importing only those listed before it (``docs/model.md`` is the specification;
 ``tests/test_layers.py`` enforces the order)::
 
-    model     params, excitation, phases, units, engine
+    model     params, excitation, phases, units, engine, orders
     solver    events, kernel, trajectory
     analysis  sections, classify, overlays, vocabulary, sound, continuation
     batch     chunks, executor, sweep, maps, plan
@@ -17,7 +17,8 @@ from . import jitcache
 jitcache.refresh()
 
 from .analysis.classify import Classification, classify
-from .analysis.continuation import (Bifurcation, ContinuationResult, PeriodicOrbit,
+from .analysis.continuation import (Bifurcation, BifurcationCurve, ContinuationResult,
+                                    PeriodicOrbit, contact_bifurcation, continue_bifurcation,
                                     continue_orbit, find_orbit)
 from .analysis.overlays import contact_boundary, one_sided_impulse
 from .analysis.sections import impact_map, poincare
@@ -33,4 +34,5 @@ __all__ = ["RattleParams", "Trajectory", "simulate", "excitation", "SolverError"
            "poincare", "impact_map", "classify", "Classification", "contact_boundary",
            "one_sided_impulse", "sweep", "SweepResult", "units", "continue_orbit", "find_orbit",
            "PeriodicOrbit", "Bifurcation", "ContinuationResult", "statistics", "Statistics",
-           "noise_sensitivity", "NoiseSensitivity"]
+           "noise_sensitivity", "NoiseSensitivity", "continue_bifurcation",
+           "contact_bifurcation", "BifurcationCurve"]

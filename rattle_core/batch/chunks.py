@@ -24,7 +24,7 @@ from numba import njit, prange
 from ..analysis.classify import classify_batch
 from ..analysis.vocabulary import REGIME_CODES
 from ..model.excitation import excitation
-from ..model.params import RattleParams, parse_name
+from ..model.params import RattleParams, check_range, parse_name
 from ..solver import kernel as solver
 from ..solver.noise import _seed, user_seed
 
@@ -124,6 +124,26 @@ def param_arrays(base: RattleParams, columns: dict[str, np.ndarray]):
         else:
             cols[kind] = np.asarray(values, dtype=np.float64)
     return cols["lam"], cols["r"], cols["j"], h, phi, cols["v_stick"], cols["noise"]
+
+
+def check_start(base: RattleParams, columns: dict[str, np.ndarray], x0) -> float | None:
+    """A common start position ``x0`` at t = 0 checked against every value's backlash.
+
+    ``x0`` must lie in ``[y(0), y(0) + j]`` for each value, as :func:`simulate` demands of a
+    single run: a value outside is refused, not clipped.  Returns ``x0`` as a float (or None).
+    """
+    if x0 is None:
+        return None
+    x0 = check_range("x0", x0, -1e6, 1e6)
+    lam, r, j, h, phi, vs = param_arrays(base, columns)
+    y0 = np.sum(h * np.cos(phi), axis=1)  # y(0) = Σ h_k cos(−φ_k)
+    bad = (x0 < y0 - 1e-12) | (x0 > y0 + j + 1e-12)
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        raise ValueError(f"x0 = {x0!r} is outside the backlash at t = 0, [{y0[i]:g}, "
+                         f"{y0[i] + j[i]:g}], for the value at row {i}; every value must start "
+                         "between its teeth")
+    return x0
 
 
 def run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transient: int,

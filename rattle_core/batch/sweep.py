@@ -22,10 +22,10 @@ from typing import TYPE_CHECKING, Any, Callable, Sequence
 import numpy as np
 
 from ..analysis.vocabulary import STICKING_KINDS, regime_letters
-from ..model.params import RattleParams, check_range, parse_name
+from ..model.params import RattleParams, check_range, check_reals, parse_name
 from ..solver import kernel as solver
 from ..solver.trajectory import MAX_PERIODS, SOLVER_VERSION, _check_int
-from .chunks import param_arrays, run_chunk, summary_arrays
+from .chunks import check_start, param_arrays, run_chunk, summary_arrays
 from .executor import run_chunks
 
 if TYPE_CHECKING:  # pandas is imported on first use: it costs a quarter second at start-up
@@ -104,17 +104,11 @@ def validate_sweep_args(name: str, values: Sequence[float], transient: int, reco
                         mode: str) -> tuple[np.ndarray, int, int]:
     """Check a sweep request; raises ``ValueError`` naming what is wrong."""
     parse_name(name)
-    try:
-        vals = np.asarray(values, dtype=np.float64).ravel()
-    except (TypeError, ValueError):
-        raise ValueError(f"values must be numbers, got {values!r}") from None
+    vals = check_reals("values", values)
     if vals.size == 0:
         raise ValueError("values is empty; give at least one value to sweep")
     if vals.size > MAX_VALUES:
         raise ValueError(f"values has {vals.size} entries; the allowed range is 1 to {MAX_VALUES}")
-    if not np.all(np.isfinite(vals)):
-        bad = float(vals[~np.isfinite(vals)][0])
-        raise ValueError(f"values must all be finite, got {bad!r}")
     transient = _check_int("transient", transient, 0, MAX_PERIODS)
     record = _check_int("record", record, 1, 100_000)
     if mode not in ("fresh", "continuation"):
@@ -174,8 +168,7 @@ def sweep(base: RattleParams, name: str, values: Sequence[float], transient: int
         raise ValueError(f"base must be a RattleParams, got {type(base).__name__}")
     vals, transient, record = validate_sweep_args(name, values, transient, record, mode)
     param_arrays(base, {name: vals})  # validates the range of the swept values
-    if x0 is not None:
-        x0 = check_range("x0", x0, -1e6, 1e6)
+    x0 = check_start(base, {name: vals}, x0)
     v0 = check_range("v0", v0, -1e6, 1e6)
     nv = vals.size
     if chunk_size is None:

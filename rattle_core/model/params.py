@@ -13,7 +13,9 @@ import dataclasses
 import hashlib
 import json
 import math
+import numbers
 import re
+from collections.abc import Mapping, Set
 from typing import Any, Iterable
 
 import numpy as np
@@ -65,6 +67,44 @@ def check_range(name: str, value: Any, lo: float, hi: float, *, lo_open: bool = 
     if below or above:
         raise ValueError(f"{name} = {v!r} is outside the allowed range {allowed}")
     return v
+
+
+def check_int(name: str, value: Any, lo: int, hi: int) -> int:
+    """Return ``value`` as an int in ``[lo, hi]``, or raise ``ValueError`` naming it.
+
+    A float is taken only when it is whole (``2.0``); ``2.5`` is refused rather than
+    truncated, and so are bools and text.
+    """
+    v = check_range(name, value, lo, hi)
+    if v != int(v):
+        raise ValueError(f"{name} = {value!r} must be a whole number in [{lo}, {hi}]")
+    return int(v)
+
+
+def check_reals(label: str, values: Any) -> np.ndarray:
+    """``values`` as a flat float64 array, or ``ValueError`` naming ``label``.
+
+    Text, bools and containers are refused even where numpy would convert them
+    (``np.asarray(["1", "2"], float)`` parses the strings); NaN and infinities too.
+    """
+    if isinstance(values, (str, bytes, Mapping, Set)):
+        raise ValueError(f"{label} must be a sequence of numbers, got {values!r:.60}")
+    arr = np.asarray(values) if isinstance(values, np.ndarray) else None
+    if arr is None:
+        try:
+            items = list(values) if not np.isscalar(values) else [values]
+        except TypeError:
+            raise ValueError(f"{label} must be a sequence of numbers, got {values!r:.60}") from None
+        arr = np.asarray(items, dtype=object).ravel() if items else np.empty(0)
+    if arr.dtype.kind not in "fiu":
+        for v in arr.ravel():
+            if (isinstance(v, (bool, np.bool_)) or not isinstance(v, (numbers.Real, np.floating,
+                                                                      np.integer))):
+                raise ValueError(f"{label} must be numbers, got {v!r:.60} in it")
+    vals = arr.astype(np.float64).ravel()
+    if not np.all(np.isfinite(vals)):
+        raise ValueError(f"{label} must all be finite, got {float(vals[~np.isfinite(vals)][0])!r}")
+    return vals
 
 
 def check_bool(name: str, value: Any) -> bool:
@@ -202,13 +242,27 @@ class RattleParams:
 
     @classmethod
     def from_dict(cls, d: dict) -> "RattleParams":
+        """Parameters from :meth:`to_dict` (or :meth:`canonical`); ``ValueError`` naming what is
+        missing or unknown."""
+        if not isinstance(d, Mapping):
+            raise ValueError(f"parameters must be a dict, got {type(d).__name__}")
+        known = [f.name for f in dataclasses.fields(cls)]
+        unknown = sorted(str(k) for k in d if k not in known)
+        if unknown:
+            raise ValueError(f"unknown parameter {unknown[0]!r}; allowed: {', '.join(known)}")
+        if "lam" not in d:
+            raise ValueError("lam is missing; the parameters must give at least lam")
+
         def num(v: Any) -> Any:
             if isinstance(v, str) and re.match(r"^[-+]?0x", v.strip()):
                 return float.fromhex(v)
             return v
+
+        def nums(v: Any) -> Any:  # anything but a list is left for the constructor to refuse
+            return tuple(num(a) for a in v) if isinstance(v, (list, tuple)) else v
         return cls(lam=num(d["lam"]), r=num(d.get("r", 0.65)), j=num(d.get("j", 8.0)),
-                   amplitudes=tuple(num(a) for a in d.get("amplitudes", (1.0,))),
-                   phases_deg=tuple(num(p) for p in d.get("phases_deg", (0.0,))),
+                   amplitudes=nums(d.get("amplitudes", (1.0,))),
+                   phases_deg=nums(d.get("phases_deg", (0.0,))),
                    v_stick=num(d.get("v_stick", 1e-6)), noise=num(d.get("noise", NOISE_DEFAULT)))
 
     def key(self, **settings: Any) -> str:
@@ -217,7 +271,8 @@ class RattleParams:
 
 
 def _as_tuple(name: str, seq: Any) -> tuple:
-    if isinstance(seq, (str, bytes)):
+    # a dict's keys or a set's order would silently stand in for the harmonics' values
+    if isinstance(seq, (str, bytes, Mapping, Set)):
         raise ValueError(f"{name} must be a sequence of numbers, got {seq!r}")
     if np.isscalar(seq):
         return (seq,)

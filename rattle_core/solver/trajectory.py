@@ -14,11 +14,15 @@ import numpy as np
 from . import kernel as solver
 from .noise import MAX_SEED, _seed, user_seed
 from ..model.excitation import TWO_PI, excitation
-from ..model.params import RattleParams, check_bool, check_range
+from ..model.params import RattleParams, check_bool, check_int, check_range
 
 SOLVER_VERSION = "1.3.0"
 #: Largest number of forcing periods (transient + recorded) one call may run.
 MAX_PERIODS = 2_000_000
+#: Largest |t0|.  The kernel runs on (period index, phase), but a trajectory reports absolute
+#: times, and beyond this a double's spacing (1.2e-10 at 1e6) times the walls' speed would
+#: move a sampled gear visibly through a tooth; later periods are reached with ``transient``.
+MAX_T0 = 1.0e6
 
 
 class SolverError(RuntimeError):
@@ -149,11 +153,7 @@ class Trajectory:
         return self.strobe_x - y, self.strobe_v - yd
 
 
-def _check_int(name: str, value, lo: int, hi: int) -> int:
-    v = check_range(name, value, lo, hi)
-    if v != int(v):
-        raise ValueError(f"{name} = {value!r} must be a whole number in [{lo}, {hi}]")
-    return int(v)
+_check_int = check_int  # the name the batch layer imports
 
 
 def simulate(params: RattleParams, periods: int = 500, x0: float | None = None, v0: float = 0.0,
@@ -174,7 +174,7 @@ def simulate(params: RattleParams, periods: int = 500, x0: float | None = None, 
     strobe_phase : float
         θ of the stroboscopic section ``t = 2π n + θ`` (radians, reduced mod 2π).
     t0 : float
-        Start time.
+        Start time, in [-1e6, 1e6] (:data:`MAX_T0`; start later with ``transient``).
     transient : int
         Periods run first and not recorded.
     lyapunov : bool
@@ -205,7 +205,7 @@ def simulate(params: RattleParams, periods: int = 500, x0: float | None = None, 
             raise ValueError(f"seed = {seed!r} is outside the allowed range [0, {MAX_SEED}]")
     lyapunov = check_bool("lyapunov", lyapunov)
     record_segments = check_bool("record_segments", record_segments)
-    t0 = check_range("t0", t0, -1e9, 1e9)
+    t0 = check_range("t0", t0, -MAX_T0, MAX_T0)
     theta = check_range("strobe_phase", strobe_phase, -1e6, 1e6) % TWO_PI
     n0 = math.floor(t0 / TWO_PI)
     tau0 = t0 - n0 * TWO_PI
