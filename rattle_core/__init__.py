@@ -3,7 +3,7 @@
 Layers, each importing only those listed before it (``docs/model.md`` is the specification;
 ``tests/test_layers.py`` enforces the order)::
 
-    model     params, excitation, phases, units, engine
+    model     params, excitation, phases, units, engine, orders
     solver    events, kernel, trajectory
     analysis  sections, classify, overlays, vocabulary, sound, continuation
     batch     chunks, executor, sweep, maps, plan

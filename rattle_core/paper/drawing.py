@@ -195,3 +195,22 @@ def atlas_png(path: Path | str, curves: Sequence[Any], xlabel: str, ylabel: str,
         ax.legend(fontsize=8, loc="best")
     fig.tight_layout()
     fig.savefig(path)
+
+
+def orders_png(path: Path | str, order_map: Any, title: str) -> None:
+    """An order map: each order's angular-acceleration amplitude (left) and phase (right)
+    against engine speed."""
+    fig = agg_figure((10.0, 4.5), dpi=110)
+    ax, axp = fig.subplots(1, 2)
+    for j, k in enumerate(order_map.orders):
+        ax.plot(order_map.rpm, order_map.accel_rad_s2[:, j], ".-", label=f"order {k:g}")
+        axp.plot(order_map.rpm, order_map.phase_deg[:, j], ".-", label=f"order {k:g}")
+    ax.set_xlabel("engine speed [rpm]")
+    ax.set_ylabel("angular acceleration amplitude [rad/s²]")
+    ax.legend(fontsize=8, frameon=False)
+    axp.set_xlabel("engine speed [rpm]")
+    axp.set_ylabel("phase φ_k of θ_k cos(kψ − φ_k) [deg]")
+    axp.set_ylim(-180, 180)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path)
