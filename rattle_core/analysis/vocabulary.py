@@ -70,6 +70,32 @@ CONTACT_VALUES: dict[int, str] = {0: "none", **FLANK_VALUES}
 STICK_COLOUR = "#f39c12"
 
 
+@dataclasses.dataclass(frozen=True)
+class CurveStyle:
+    """How a bifurcation curve of the atlas is drawn: legend label, colour, dash pattern
+    (a Bokeh ``line_dash`` name, which matplotlib's :data:`MPL_DASH` translates)."""
+
+    label: str
+    colour: str
+    dash: str
+
+
+#: One line style per kind of bifurcation curve, in the dashboard and in PNGs alike.
+CURVE_STYLES: dict[str, CurveStyle] = {
+    "contact": CurveStyle("contact boundary Λ_c (rattle starts)", "#000000", "solid"),
+    "fold": CurveStyle("fold (multiplier +1)", "#8e44ad", "dashed"),
+    "period_doubling": CurveStyle("period doubling (multiplier −1)", "#c0392b", "solid"),
+    "grazing": CurveStyle("grazing (an impact appears)", "#16a085", "dotdash"),
+    "stick_onset": CurveStyle("onset of sticking", "#d35400", "dotted"),
+}
+#: matplotlib's spelling of the Bokeh dash names used above.
+MPL_DASH = {"solid": "-", "dashed": "--", "dotdash": "-.", "dotted": ":"}
+#: Codimension-two points: marker and short label.
+CODIM2_MARKERS = {"grazing_period_doubling": ("o", "graze+PD"), "fold_period_doubling":
+                  ("s", "fold+PD"), "grazing_fold": ("D", "graze+fold"),
+                  "grazing_sticking": ("v", "graze+stick"), "turn": ("^", "turn")}
+
+
 def regime_letters(codes) -> np.ndarray:
     """Letters of regime codes (an array of str; ``""`` for −1, a point not run)."""
     table = np.array(LETTERS + ("",), dtype=object)
