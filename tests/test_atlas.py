@@ -272,8 +272,12 @@ def test_bad_requests_name_the_parameter(c_pd):
     stick = continue_orbit(find_orbit(RattleParams(lam=1.1)), "lam", bounds=(0.5, 1.1),
                            direction=-1)
     assert stick.bifurcations[-1].kind == "permanent_contact"
-    with pytest.raises(ValueError, match="r"):
-        continue_bifurcation(stick.bifurcations[-1], "r")
+    up = continue_orbit(find_orbit(RattleParams(lam=1.1)), "lam", bounds=(1.1, 2.0))
+    assert up.bifurcations[-1].kind == "stick_end"
+    with pytest.raises(ValueError, match="no curve"):
+        continue_bifurcation(up.bifurcations[-1], "r")
+    line = continue_bifurcation(stick.bifurcations[-1], "r", bounds=(0.3, 0.9))
+    assert np.allclose(line.points["lam"], 1.0, atol=1e-9)  # r does not move Λ_c
     with pytest.raises(ValueError, match="param"):
         contact_bifurcation(RattleParams(lam=1.0), "r")
 
@@ -303,3 +307,83 @@ def test_contact_boundary_in_phase_zero_is_one_over_one_plus_four_h2():
     pts = cur.points
     assert np.max(np.abs(pts["lam"] - 1 / (1 + 4 * pts["h2"]))) < 1e-12
     assert np.allclose(np.cos(pts["t_star"]), 1.0)
+
+
+def test_atlas_of_a_window_holds_the_closed_forms():
+    """The atlas of Λ ∈ [0.8, 2] × r ∈ [0.4, 0.8] (harmonic) holds the contact boundary Λ = 1
+    and the C orbit's period doubling Λ_PD(r), both to 1e-8, every curve inside the window."""
+    from rattle_core.analysis.continuation import atlas
+    seen = []
+    curves = atlas(RattleParams(lam=1.2), "lam", (0.8, 2.0), "r", (0.4, 0.8),
+                   progress=lambda d, t: seen.append((d, t)))
+    assert seen and seen[-1][0] <= seen[-1][1]
+    kinds = [c.kind for c in curves]
+    assert kinds[0] == "contact" and np.allclose(curves[0].points["lam"], 1.0, atol=1e-8)
+    pds = [c for c in curves if c.kind == "period_doubling" and c.points["period"].eq(1).all()
+           and c.points["n_impacts"].eq(1).all()]
+    assert len(pds) == 1
+    pts = pds[0].points
+    assert np.max(np.abs(pts["lam"] - lam_pd(pts["r"]))) < 1e-8
+    for c in curves:
+        assert c.points["lam"].between(0.8 - 1e-9, 2.0 + 1e-9).all()
+        assert c.points["r"].between(0.4 - 1e-9, 0.8 + 1e-9).all()
+    with pytest.raises(ValueError, match="v_stick"):
+        atlas(RattleParams(lam=1.2), "lam", (0.8, 2.0), "v_stick", (0, 1))
+
+
+# ----- the command ------------------------------------------------------------------------------
+
+def test_cli_atlas_writes_the_curve_its_codim2_points_and_png(tmp_path, capsys):
+    """``rattle atlas --from c:lam:pd --param2 j`` writes the period-doubling curve (Λ_PD at
+    every point), its grazing–doubling point and a PNG; in physical units the curve over
+    drag torque is C = C₀ (Λ₀/Λ_PD)(rpm/rpm₀)²."""
+    import pandas as pd
+    from PIL import Image
+
+    from rattle_cli.main import main
+    out = tmp_path / "pd.csv"
+    code = main(["atlas", "--lam", "1.2", "--from", "c:lam:pd", "--param2", "j", "--bounds",
+                 "1,8", "--out", str(out), "--png", str(tmp_path / "pd.png"), "-q"])
+    assert code == 0 and capsys.readouterr().out == ""
+    pts = pd.read_csv(out)
+    assert {"lam", "j", "impulse_1", "mu1_re", "mu2_re"} <= set(pts.columns)
+    assert np.allclose(pts["lam"], lam_pd(R), atol=1e-9)
+    c2 = pd.read_csv(tmp_path / "pd_codim2.csv")
+    assert c2["kind"].tolist() == ["grazing_period_doubling"]
+    with Image.open(tmp_path / "pd.png") as im:
+        assert im.size[0] > 500
+    out = tmp_path / "phys.csv"
+    code = main(["atlas", "--inertia", "2e-4", "--radius", "0.04", "--drag-torque", "0.02",
+                 "--backlash-um", "160", "--rpm", "2100", "--theta-amp", "5e-4", "--from",
+                 "c:rpm:pd", "--bounds1", "1000,4000", "--param2", "drag_torque", "--bounds",
+                 "0.01,0.03", "--out", str(out), "-q"])
+    assert code == 0
+    pts = pd.read_csv(out)
+    lam0 = units.PhysicalParams(inertia=2e-4, radius=0.04, drag_torque=0.02, backlash=160e-6,
+                                rpm=2100.0, amplitudes=(5e-4,)).to_dimensionless().lam
+    expect = 0.02 * lam0 / lam_pd(R) * (pts["rpm"] / 2100.0) ** 2
+    assert len(pts) > 5 and np.allclose(pts["drag_torque"], expect, rtol=1e-8, atol=0)
+
+
+def test_cli_atlas_errors_are_one_line_and_come_first(tmp_path, capsys):
+    """Bad specs, parameters, bounds and paths exit 2 with one line before any work; a
+    bifurcation the branch never meets exits 1."""
+    from rattle_cli.main import main
+    ok = ["--from", "c:lam:pd", "--param2", "r", "--bounds", "0.3,0.9"]
+    cases = [(["--from", "x:lam:pd"], "START"), (["--from", "c:lam:zz"], "KIND"),
+             (["--from", "c:lam:pd:0"], "N"), (["--param2", "zeta"], "param"),
+             (["--param2", "lam"], "same model number"), (["--bounds", "0.9"], "--bounds"),
+             (["--bounds", "0.9,0.3"], "--bounds"), (["--param2", "rpm"], "physical"),
+             (["--from", "contact:lam:pd"], "contact"), (["--max-points", "0"], "--max-points")]
+    for extra, word in cases:
+        argv = ["atlas", "--lam", "1.2", *ok, "--out", str(tmp_path / "x.csv"), *extra]
+        code = main(argv)
+        err = capsys.readouterr().err
+        assert code == 2 and err.count("\n") == 1 and word in err, (extra, err)
+    code = main(["atlas", "--lam", "1.2", *ok, "--out", str(tmp_path / "x.txt")])
+    assert code == 2 and "--out" in capsys.readouterr().err
+    code = main(["atlas", "--lam", "1.2", "--from", "c:lam:pd:3", "--bounds1", "1.2,1.5",
+                 "--param2", "r", "--bounds", "0.3,0.9", "--out", str(tmp_path / "x.csv")])
+    err = capsys.readouterr().err
+    assert code == 1 and "asked for number 3" in err and err.count("\n") == 1
+    assert not (tmp_path / "x.csv").exists()

@@ -11,8 +11,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..analysis.vocabulary import (ACTIVE, FLANK_COLOURS, FLANK_LABELS, LETTERS, REGIME_COLOURS,
-                                   REVERSE)
+from ..analysis.vocabulary import (ACTIVE, CODIM2_MARKERS, CURVE_STYLES, FLANK_COLOURS,
+                                   FLANK_LABELS, LETTERS, MPL_DASH, REGIME_COLOURS, REVERSE)
 
 
 def agg_figure(figsize: tuple[float, float], dpi: int = 110):
@@ -164,6 +164,35 @@ def continuation_png(path: Path | str, results: Sequence[Any], xlabel: str, titl
     ax.set_xlabel(xlabel)
     ax.set_ylabel("dimensionless impulse Ĩ (active > 0, reverse < 0)")
     ax.set_title(f"{title}\nstable solid, unstable dashed", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path)
+
+
+def atlas_png(path: Path | str, curves: Sequence[Any], xlabel: str, ylabel: str,
+              title: str) -> None:
+    """Bifurcation curves of :func:`~rattle_core.analysis.continuation.continue_bifurcation`
+    in the plane of their two parameters (the first across), one line style per kind, with
+    the codimension-two points marked and labelled."""
+    fig = agg_figure((8.0, 6.0), dpi=120)
+    ax = fig.subplots()
+    seen = set()
+    for c in curves:
+        st = CURVE_STYLES[c.kind]
+        pts = c.points
+        label = st.label if c.kind not in seen else None
+        seen.add(c.kind)
+        ax.plot(pts[c.param1], pts[c.param2], MPL_DASH[st.dash], color=st.colour, lw=1.5,
+                label=label)
+        for p in c.codim2:
+            marker, text = CODIM2_MARKERS[p.kind]
+            ax.plot([p.value1], [p.value2], marker, color="k", ms=6, mfc="none")
+            ax.annotate(text, (p.value1, p.value2), fontsize=7, xytext=(4, 4),
+                        textcoords="offset points")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=9)
+    if seen:
+        ax.legend(fontsize=8, loc="best")
     fig.tight_layout()
     fig.savefig(path)
 

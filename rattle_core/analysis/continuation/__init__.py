@@ -98,10 +98,13 @@ pseudo-arclength method with the extended system (``continue_bifurcation``).
 * ``codim2``: codimension-two points: test functions, location, restart onto the other curve.
 * ``twoparam``: :class:`BifurcationCurve` and the loop that follows a curve both ways.
 * ``bifcurve``: :func:`continue_bifurcation`, which checks the request and starts the curve.
+* ``atlas``: :func:`atlas`, every curve over a window of two parameters that continuation finds
+  from a few seeds.
 """
 from __future__ import annotations
 
 from .admissibility import ADMISSIBLE, CONTACT_MATCH
+from .atlas import ATLAS_AXES, atlas, axes_supported
 from .bifcurve import CURVE_STARTS, contact_bifurcation, continue_bifurcation
 from .codim2 import CODIM2_KINDS, Codim2Point
 from .driver import CONTINUATION_VERSION, MAX_POINTS, continue_orbit
@@ -123,7 +126,7 @@ from .sticking import _release_roots  # noqa: F401
 from .twoparam import CURVE_KINDS, MAX_CURVE_POINTS, BifurcationCurve
 
 __all__ = [
-    "ADMISSIBLE", "BIFURCATION_KINDS", "BifurcationCurve", "CODIM2_KINDS", "CONTACT_MATCH",
+    "ADMISSIBLE", "ATLAS_AXES", "BIFURCATION_KINDS", "atlas", "axes_supported", "BifurcationCurve", "CODIM2_KINDS", "CONTACT_MATCH",
     "CURVE_KINDS", "CURVE_STARTS", "Codim2Point", "MAX_CURVE_POINTS", "contact_bifurcation",
     "continue_bifurcation", "CONTINUATION_VERSION", "IMPACT_COLUMNS",
     "LOCATE_TOL", "MAX_ORBIT_IMPACTS", "MAX_ORBIT_PERIOD", "MAX_POINTS", "NEWTON_TOL",

@@ -16,7 +16,7 @@ from .contact import _ContactSystem, _contact_side, _global_start, _polish_t
 from .defining import _Extended, _Grazing, _Multiplier, _StickOnset
 from .driver import CONTINUATION_VERSION
 from .orbits import ContinuationError
-from .parameter import _KIND_J, _KIND_LAM, _KIND_R, _Param
+from .parameter import _KIND_J, _KIND_LAM, _KIND_R, _Param  # noqa: F401
 from .plane import _Plane
 from .results import Bifurcation
 from .twoparam import MAX_CURVE_POINTS, BifurcationCurve, _check_cancel, _finish, _trace
@@ -223,10 +223,6 @@ def _bounds_q(spec: _Param, bounds, label: str) -> tuple[float, float]:
 def _from_bifurcation(plane: _Plane, b: Bifurcation, q1: float, q2: float, v_stick: float):
     """The extended system of a one-parameter bifurcation, and its first point solved."""
     if b.kind == "permanent_contact":
-        if plane.spec2.kind in (_KIND_R, _KIND_J):
-            raise ValueError(f"param2 = {plane.spec2.name!r} does not move the contact boundary "
-                             "(it depends on Λ and the harmonics only); allowed: lam, hK, "
-                             "phiK, rpm, drag_torque")
         sys_ = _ContactSystem(plane)
         X = _global_start(plane, q1, q2)
         X[0] = _polish_t(sys_, X)

@@ -125,6 +125,13 @@ def _codim2_tests(ext: _Extended, X, orb: PeriodicOrbit, tau) -> dict:
 
 
 def _test_at(ext: _Extended, key: str, X, tau) -> float:
+    try:
+        return _test_value(ext, key, X, tau)
+    except (ZeroDivisionError, FloatingPointError):
+        return math.nan
+
+
+def _test_value(ext: _Extended, key: str, X, tau) -> float:
     if key == "turn":
         return float(ext.tangent(X, tau)[-1])
     if key in ("pd", "fold"):

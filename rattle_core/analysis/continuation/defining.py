@@ -239,7 +239,10 @@ class _Extended:
         or −2, with ``q₂`` or ``q₁`` held.  Returns ``(X, iterations)``, ``X`` None on failure."""
         X = Xp.copy()
         for it in range(maxit + 1):
-            R, A = self.residual_jacobian(X)
+            try:
+                R, A = self.residual_jacobian(X)
+            except (ZeroDivisionError, FloatingPointError, ValueError):
+                return None, it  # an impact at zero speed: no orbit of this sequence here
             if not np.all(np.isfinite(R)) or not np.all(np.isfinite(A)):
                 return None, it
             res = max(_scaled_norm(R[:-1], X[:-2]), abs(R[-1]))
