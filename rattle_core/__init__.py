@@ -22,6 +22,7 @@ from .analysis.continuation import (Bifurcation, BifurcationCurve, ContinuationR
                                     continue_orbit, find_orbit)
 from .analysis.overlays import contact_boundary, one_sided_impulse
 from .analysis.sections import impact_map, poincare
+from .batch.ensemble import NoiseSensitivity, Statistics, noise_sensitivity, statistics
 from .batch.sweep import SweepResult
 from .batch.sweep import sweep as sweep
 from .model import units
@@ -32,5 +33,6 @@ from .solver.trajectory import SOLVER_VERSION, SolverError, Trajectory, simulate
 __all__ = ["RattleParams", "Trajectory", "simulate", "excitation", "SolverError", "SOLVER_VERSION",
            "poincare", "impact_map", "classify", "Classification", "contact_boundary",
            "one_sided_impulse", "sweep", "SweepResult", "units", "continue_orbit", "find_orbit",
-           "PeriodicOrbit", "Bifurcation", "ContinuationResult", "continue_bifurcation",
+           "PeriodicOrbit", "Bifurcation", "ContinuationResult", "statistics", "Statistics",
+           "noise_sensitivity", "NoiseSensitivity", "continue_bifurcation",
            "contact_bifurcation", "BifurcationCurve"]

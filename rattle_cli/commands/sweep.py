@@ -163,7 +163,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         result = _run_on(args, scheduler, lambda executor: compute(
             params, name, values, transient=transient, record=record, mode=args.mode, x0=args.x0,
-            v0=args.v0, progress=progress, executor=executor, noise=not args.strict))
+            v0=args.v0, progress=progress, executor=executor))
     finally:
         progress.close()
     table, summary = sweep_frames(result, phys, None if rpm is None else (values, rpm))
@@ -196,8 +196,8 @@ def run(args: argparse.Namespace) -> int:
         info(args, "regimes: " + ", ".join(f"{k} {v}" for k, v in counts.items()))
         kinds = result.summary["sticking"].value_counts()
         if len(kinds.drop("", errors="ignore")):
-            how = ("strict model: loops chosen by rounding" if args.strict
-                   else "vanishing-noise statistics")
+            how = ("strict model: loops chosen by rounding" if params.noise == 0
+                   else f"statistics at noise {params.noise:g}, one run per value")
             info(args, "through sticking: " + ", ".join(
                 f"{kind} {n}" for kind, n in kinds.items() if kind)
                 + (f" ({how})" if "chaos-through-sticking" in kinds else ""))
@@ -212,9 +212,6 @@ def _run_map(args: argparse.Namespace, out: Path, png: Path | None, params, phys
     names = (args.param, args.param2)
     if args.mode != "fresh":
         raise CLIError("2-D maps start every point from the same state; drop --mode continuation")
-    if args.strict:
-        raise CLIError("--strict applies to simulate, sound and 1-D sweeps; maps show the "
-                       "attractor under vanishing noise")
     xv = _values(args, "", default_num=100)
     yv = _values(args, "2", default_num=100)
     transient = 300 if args.transient is None else args.transient

@@ -120,9 +120,10 @@ def flank_colours(flank) -> np.ndarray:
     return np.where(np.asarray(flank) > 0, FLANK_COLOURS[ACTIVE], FLANK_COLOURS[REVERSE]).astype(object)
 
 
-def physical_table(phys: PhysicalParams) -> list[tuple[str, str, str]]:
+def physical_table(phys: PhysicalParams, noise: float | None = None) -> list[tuple[str, str, str]]:
     """Rows ``(quantity, physical value, dimensionless value)`` of a physical parameter set, for
-    showing both systems side by side (``rattle units``, the dashboard's units panel)."""
+    showing both systems side by side (``rattle units``, the dashboard's units panel); with
+    ``noise``, a row says what the model's noise level means for this gear."""
     p = phys.to_dimensionless()
     unit = "rad" if phys.excitation == "displacement" else "rad/s²"
     sym = "θ" if phys.excitation == "displacement" else "α"
@@ -142,6 +143,9 @@ def physical_table(phys: PhysicalParams) -> list[tuple[str, str, str]]:
                      f"{phys.amplitudes[k - 1]:.6g} {unit}, {phys.phases_deg[k - 1]:.6g}°",
                      f"h_{k} = {p.amplitudes[k - 1]:.6g}, φ_{k} = {p.phases_deg[k - 1]:.6g}°"))
     rows.append(("restitution r", f"{phys.r:.6g}", f"{p.r:.6g}"))
+    if noise is not None:
+        rows.append(("restitution scatter per impact", f"r = {phys.r:.4g} ± {phys.r * noise:.3g}",
+                     f"noise ε = {noise:g}"))
     rows.append(("limit impact velocity", f"{phys.v_stick_mps:.6g} m/s", f"v_stick = {p.v_stick:.6g}"))
     rows.append(("impulse scale m ω H₁", f"{phys.impulse_scale:.6g} N·s", "Ĩ = 1"))
     rows.append(("time scale 1/ω", f"{1.0 / phys.omega:.6g} s", "t = 1"))

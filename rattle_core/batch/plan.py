@@ -35,7 +35,8 @@ def point_params(params: RattleParams, phys: Any, names: tuple[str, ...],
         changes = {PHYSICAL_AXES[n][0]: v * PHYSICAL_AXES[n][1]
                    for n, v in zip(names, point) if n in PHYSICAL_AXES}
         if changes:
-            params = phys.replace(**changes).to_dimensionless()
+            # the physical set knows nothing of the model's noise: it keeps the caller's
+            params = phys.replace(**changes).to_dimensionless().replace(noise=params.noise)
     for n, v in zip(names, point):
         if n not in PHYSICAL_AXES:
             parse_name(n)

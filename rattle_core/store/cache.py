@@ -90,7 +90,6 @@ def size_limit() -> int:
 def sweep_request(base: RattleParams, name: str, values, settings: dict) -> dict:
     """What a sweep's result depends on; its :func:`canonical_hash` is the cache key."""
     keyed = {k: settings[k] for k in _SWEEP_SETTINGS}
-    keyed["noise"] = bool(settings.get("noise", True))
     return {"kind": "sweep", "params": base.canonical(), "name": name,
             "values": np.asarray(values, dtype=np.float64), "settings": keyed,
             "schema": SCHEMA_VERSION, "solver": SOLVER_VERSION}
@@ -153,17 +152,17 @@ def cached(prefix: str, request: dict, compute: Callable[[], Any],
 def cached_sweep(base: RattleParams, name: str, values, transient: int = 500, record: int = 200,
                  mode: str = "fresh", x0: float | None = None, v0: float = 0.0, progress=None,
                  cancel=None, chunk_size: int | None = None, executor: Any = None,
-                 directory: Path | str | None = None, noise: bool = True) -> SweepResult:
+                 directory: Path | str | None = None) -> SweepResult:
     """:func:`~rattle_core.batch.sweep.sweep`, served from the disk cache when the same request
     ran before (``result.from_cache``).  A cancelled sweep is returned but not stored."""
     vals, transient, record = validate_sweep_args(name, values, transient, record, mode)
     settings = {"transient": transient, "record": record, "mode": mode,
-                "x0": None if x0 is None else float(x0), "v0": float(v0), "noise": noise}
+                "x0": None if x0 is None else float(x0), "v0": float(v0)}
 
     def compute() -> SweepResult:
         return sweep(base, name, vals, transient=transient, record=record, mode=mode, x0=x0,
                      v0=v0, progress=progress, cancel=cancel, chunk_size=chunk_size,
-                     executor=executor, noise=noise)
+                     executor=executor)
 
     def holds(res: SweepResult) -> bool:
         return (res.name == name and res.params.canonical() == base.canonical()
