@@ -128,7 +128,7 @@ def test_physical_rates_match_a_single_simulation(box, run):
     simulate() on the same parameters, converted by hand (f = order·rpm/60, I = Ĩ m ω H₁)."""
     phys = box.physical(0, 2500.0)
     tr = simulate(phys.to_dimensionless(), periods=run.settings["record"],
-                  transient=run.settings["transient"])
+                  transient=run.settings["transient"], lyapunov=True)
     seconds = run.settings["record"] * 60.0 / (2 * 2500.0)
     m = phys.inertia / phys.radius ** 2
     H1 = phys.drive_radius * phys.amplitudes[0]

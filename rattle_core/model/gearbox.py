@@ -164,6 +164,23 @@ class Excitation:
                     phase[:, n] = ph
         return theta, phase
 
+    def follow(self, phys: PhysicalParams, rpm: float, speed_ratio: float = 1.0) -> PhysicalParams:
+        """``phys`` at engine speed ``rpm`` with its harmonics taken from this excitation: the
+        driving gear's displacement amplitudes are ``speed_ratio`` times the shaft's at engine
+        orders ``engine_order × (1..harmonics)``, with their phases, and the fundamental's
+        order is ``engine_order``; every other input of ``phys`` is kept."""
+        theta, phase = self.shaft([rpm])
+        return phys.replace(rpm=float(rpm), amplitudes=tuple(theta[0] * speed_ratio),
+                            phases_deg=tuple(phase[0]), order=self.engine_order,
+                            excitation="displacement")
+
+    def columns(self, phys: PhysicalParams, rpm: Any, speed_ratio: float = 1.0) -> dict:
+        """The model's numbers at each speed when the harmonics follow engine speed: a dict
+        ``lam, j, phi1, h2, phi2, ...`` → one value per speed, for
+        :func:`~rattle_core.batch.sweep.sweep` (``columns=``)."""
+        return model_columns([self.follow(phys, r, speed_ratio).to_dimensionless()
+                              for r in np.atleast_1d(np.asarray(rpm, dtype=np.float64))])
+
     def canonical(self) -> dict:
         """What the excitation is, for cache keys."""
         return {"engine_order": self.engine_order, "harmonics": self.harmonics,
@@ -297,6 +314,19 @@ class Gearbox:
                    duration_s=sound_t.get("duration_s", DEFAULT_DURATION_S))
 
 
+def model_columns(points: list) -> dict:
+    """Columns of ``points``' dimensionless numbers (RattleParams of the same number of
+    harmonics): name → one value per point; Λ, j and every harmonic always, the others where
+    they differ."""
+    from .params import iter_names
+    out = {}
+    for name in iter_names(points[0]):
+        v = np.array([p.get(name) for p in points])
+        if name not in ("r", "v_stick", "noise") or np.ptp(v) > 0:
+            out[name] = v
+    return out
+
+
 def _table(data: dict, name: str, allowed: set[str]) -> dict:
     t = data.get(name, {})
     if not isinstance(t, dict):
@@ -353,5 +383,5 @@ def excitation_from_table(t: dict, base_dir: str | Path | None,
                       order_map=OrderMap.read(path, orders, step))
 
 
-__all__ = ["Gear", "Gearbox", "Excitation", "excitation_from_table", "MAX_GEARS",
+__all__ = ["Gear", "Gearbox", "Excitation", "excitation_from_table", "model_columns", "MAX_GEARS",
            "DEFAULT_TRANSFER_PA_PER_NS", "DEFAULT_DURATION_S"]
