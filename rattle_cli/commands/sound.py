@@ -50,8 +50,7 @@ def run(args: argparse.Namespace) -> int:
                            is None else args.excitation_hz, *sound.EXCITATION_HZ_RANGE, lo_open=True)
     if args.periods >= 1:
         sound.check_length(args.periods / freq + tail, rate)
-    tr = simulate(params, periods=args.periods, transient=args.transient, x0=args.x0, v0=args.v0,
-                  noise=not args.strict)
+    tr = simulate(params, periods=args.periods, transient=args.transient, x0=args.x0, v0=args.v0)
     signal, rate = sound.synthesize(tr, sample_rate=args.rate, excitation_hz=args.excitation_hz,
                                     physical=phys, modes=modes, tail=args.tail,
                                     polarity=args.polarity)

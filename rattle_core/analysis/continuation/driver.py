@@ -84,6 +84,10 @@ def continue_orbit(start, param: str | None = None, *, bounds: Sequence[float] |
         params0 = start.orbit.params
     elif isinstance(start, PeriodicOrbit):
         params0 = start.params
+        if not start.admissible:
+            raise ValueError(f"start is not an orbit of the model, so it cannot be continued: "
+                             f"{start.reason} (a closed-form or Newton solution that violates "
+                             "the backlash or a contact condition; check .admissible first)")
     elif isinstance(start, RattleParams):
         params0 = start
     else:
