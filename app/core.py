@@ -13,6 +13,9 @@ from rattle_core import units
 from rattle_core.analysis.continuation import (CONTINUATION_VERSION, ContinuationResult,
                                                 continue_orbit, find_orbit)
 from rattle_core.analysis.overlays import contact_boundary
+from rattle_core.analysis.statistics import batch_means
+from rattle_core.batch.ensemble import DEFAULT_LEVELS as NOISE_LEVELS
+from rattle_core.batch.ensemble import noise_sensitivity
 from rattle_core.analysis.sound import (DEFAULT_EXCITATION_HZ, DEFAULT_MODES,
                                         DEFAULT_SAMPLE_RATE, DEFAULT_TAIL, EXCITATION_HZ_RANGE,
                                         HousingMode, parse_modes, synthesize, write_wav)
@@ -22,7 +25,8 @@ from rattle_core.batch.plan import PHYSICAL_AXES as MAP_PHYSICAL_AXES
 from rattle_core.batch.plan import plan_map, point_params
 from rattle_core.model.excitation import TWO_PI, excitation
 from rattle_core.model.params import (AMPLITUDE_RANGE, J_RANGE, LAM_RANGE, MAX_HARMONICS,
-                                      PHASE_RANGE_DEG, R_RANGE, V_STICK_RANGE, check_range)
+                                      NOISE_DEFAULT, NOISE_RANGE, PHASE_RANGE_DEG, R_RANGE,
+                                      V_STICK_RANGE, check_range)
 from rattle_core.model.phases import core_to_paper, paper_to_core, paper_to_core_phases
 from rattle_core.model.units import PhysicalParams
 from rattle_core.paper.cases import CASES as PAPER_CASES
@@ -50,5 +54,6 @@ __all__ = [
     "MAX_HARMONICS", "PHASE_RANGE_DEG", "R_RANGE", "V_STICK_RANGE", "check_range",
     "core_to_paper_phases", "paper_to_core_phases", "DEFAULT_EXCITATION_HZ", "DEFAULT_MODES",
     "DEFAULT_SAMPLE_RATE", "DEFAULT_TAIL", "EXCITATION_HZ_RANGE", "HousingMode", "parse_modes",
-    "synthesize", "write_wav", "physical_table", "impacts_frame",
+    "synthesize", "write_wav", "physical_table", "impacts_frame", "batch_means",
+    "NOISE_DEFAULT", "NOISE_RANGE", "NOISE_LEVELS", "noise_sensitivity",
 ]

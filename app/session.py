@@ -49,7 +49,7 @@ WATCHED = tuple(dict.fromkeys((*RUN_KEYS, *PHYSICAL_KEYS, "units", "solve_for"))
 #: Core parameter names in error messages → state parameters.
 _CORE_NAMES = {"lam": "lam", "Λ": "lam", "r": "r", "j": "j", "v_stick": "v_stick", "x0": "x0",
                "v0": "v0", "t0": "t0", "periods": "periods", "transient": "transient",
-               "strobe_phase": "strobe"}
+               "strobe_phase": "strobe", "noise": "noise"}
 
 
 def field_of_error(message: str) -> str | None:

@@ -25,9 +25,9 @@ import param
 
 from rattle_core import RattleParams
 
-from .core import (AMPLITUDE_RANGE, J_RANGE, LAM_RANGE, MAX_HARMONICS, PAPER_CASES,
-                   PHASE_RANGE_DEG, R_RANGE, V_STICK_RANGE, check_range, core_to_paper_phases,
-                   paper_to_core_phases)
+from .core import (AMPLITUDE_RANGE, J_RANGE, LAM_RANGE, MAX_HARMONICS, NOISE_DEFAULT,
+                   NOISE_RANGE, PAPER_CASES, PHASE_RANGE_DEG, R_RANGE, V_STICK_RANGE,
+                   check_range, core_to_paper_phases, paper_to_core_phases)
 from .core import units as U
 
 _EX = U.example()
@@ -142,6 +142,9 @@ class ExplorerState(Said):
     harmonics = Harmonics("", label="harmonics", doc="extra harmonics k ≥ 3 as 'k:h:φ' items")
     v_stick = param.Number(1e-6, bounds=V_STICK_RANGE, label="v_stick",
                            doc="limit impact velocity (ends chatter)")
+    noise = param.Number(NOISE_DEFAULT, bounds=NOISE_RANGE, label="noise ε",
+                         doc="restitution scatter: each impact rebounds with r·(1 ± ε), drawn "
+                             "uniformly; 0 is the strict deterministic model")
     # ----- run -------------------------------------------------------------------------------
     periods = param.Integer(200, bounds=(1, 20_000), label="N", doc="periods recorded (map, metrics)")
     shown = param.Integer(12, bounds=(1, 2_000), label="Nₜ", doc="periods shown in the time history")
@@ -229,7 +232,8 @@ URL_KEYS.update(inertia="J", radius="Rb", drag_torque="C", backlash_um="b_um", b
                 excitation="exc", amp1="a1", amp2="a2", phase2="p2", solve_for="solve",
                 continuation="cont")
 #: Parameters that change the trajectory.
-RUN_KEYS = ("lam", "r", "j", "h2", "phi2", "phases", "harmonics", "v_stick", "periods", "transient",
+RUN_KEYS = ("lam", "r", "j", "h2", "phi2", "phases", "harmonics", "v_stick", "noise", "periods",
+            "transient",
             "x0", "v0", "t0", "strobe")
 #: Physical inputs that determine Λ, j, h₂, φ₂ while the units mode is on.
 PHYSICAL_KEYS = ("inertia", "radius", "drag_torque", "backlash_um", "rpm", "order", "excitation",
@@ -303,7 +307,7 @@ def rattle_params(state: ExplorerState) -> RattleParams:
     if state.phases == "paper":
         phases = list(paper_to_core_phases(phases))
     return RattleParams(lam=state.lam, r=state.r, j=state.j, amplitudes=tuple(amps),
-                        phases_deg=tuple(phases), v_stick=state.v_stick)
+                        phases_deg=tuple(phases), v_stick=state.v_stick, noise=state.noise)
 
 
 def display_phases(params: RattleParams, convention: str) -> tuple[float, ...]:

@@ -27,7 +27,9 @@ examples:
   rattle sweep --param lam --start 0.5 --stop 4 --num 400 --out fig2.npz
   rattle sweep --inertia 2e-4 --radius 0.04 --drag-torque 0.02 --backlash-um 160 --rpm 1500 \\
       --theta-amp 5e-4,1.25e-4 --theta-phase 0,45 --param rpm --start 800 --stop 6000 --out rpm.csv
+  rattle atlas --lam 1.2 --from c:lam:pd --param2 r --bounds 0.3,0.9 --out pd.csv --png pd.png
   rattle sound --lam 3.3 --out rattle.wav
+  rattle orders runup.csv --orders 2,4,6 --rpm-step 100 --out orders.csv --png
   rattle paper --out paper/
   rattle units --inertia 2e-4 --radius 0.04 --drag-torque 0.02 --backlash-um 160 --rpm 1500 --theta-amp 5e-4
   rattle cache show

@@ -105,12 +105,14 @@ def add_model_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--paper-phases", dest="paper_phases", action="store_true",
                    help="read the phases in the paper's convention y = Σ h_k sin(k t + φ_k) "
                         "(converted to the core's cos(k t − φ_k)), e.g. the paper's φ2 = 45°")
+    g.add_argument("--noise", type=float, metavar="EPS",
+                   help="relative scatter of the restitution coefficient at every rebound, "
+                        "r·(1 ± EPS) drawn uniformly, in [0, 0.5] (default 1e-12; docs/model.md, "
+                        "'Noise'); 0 is the strict deterministic model")
     g.add_argument("--strict", action="store_true",
-                   help="the strict model, without the round-off kicks that otherwise follow a "
-                        "capture decided by rounding: a chaotic run through sticking then repeats "
-                        "a loop chosen by rounding, and its summary says so (default: the "
-                        "attractor under vanishing noise; docs/model.md, 'Sticking erases the "
-                        "past'); simulate, sound and 1-D sweeps")
+                   help="the strict deterministic model, the same as --noise 0: a chaotic run "
+                        "through sticking then repeats a loop chosen by rounding, and its "
+                        "summary says so")
 
     u = p.add_argument_group("physical units", PHYSICAL_HELP)
     u.add_argument("--inertia", type=float, metavar="KG_M2", help="idle gear inertia J [kg·m²], in (0, 10]")
@@ -155,6 +157,19 @@ def build_params(args: argparse.Namespace):
     Raises ``CLIError`` when the two systems are mixed or a physical input is missing, and
     ``ValueError`` (from the parameter classes) for values out of range.
     """
+    params, phys = _build(args)
+    noise = getattr(args, "noise", None)
+    if getattr(args, "strict", False):
+        if noise not in (None, 0.0):
+            raise CLIError(f"--strict is the model without noise; it cannot be combined with "
+                           f"--noise {noise:g}")
+        noise = 0.0
+    if noise is not None:
+        params = params.replace(noise=noise)
+    return params, phys
+
+
+def _build(args: argparse.Namespace):
     r = 0.65 if args.r is None else args.r
     v_stick = 1e-6 if args.v_stick is None else args.v_stick
     physical = _given(args, _PHYSICAL_DESTS)

@@ -119,7 +119,7 @@ def _scan_grid(s1, ds, smax, chunk=4096):
 
 
 def naive_simulate(lam, r, j, h, phi, v_stick, t0, x0, v0, t_end, ds=TWO_PI / 1000,
-                   max_events=200_000) -> NaiveRun:
+                   max_events=200_000, noise=0.0, rng=None) -> NaiveRun:
     """Plain-Python event loop for the rattle model (docs/model.md), from ``t0`` to ``t_end``.
 
     Parameters
@@ -137,7 +137,12 @@ def naive_simulate(lam, r, j, h, phi, v_stick, t0, x0, v0, t_end, ds=TWO_PI / 10
         End time.
     ds : float
         Longest scan step.  Contacts whose penetration lasts less than ``ds`` may be missed.
+    noise, rng : float, numpy Generator
+        The model's noise (docs/model.md, "Noise"): each rebound uses ``r (1 + noise ξ)``,
+        capped at 1, with ``ξ`` uniform in (−1, 1) drawn from ``rng``.
     """
+    if noise > 0.0 and rng is None:
+        raise ValueError("noise > 0 needs a random generator rng")
     h = np.asarray(h, dtype=np.float64)
     phi = np.asarray(phi, dtype=np.float64)
     k = np.arange(1, len(h) + 1, dtype=np.float64)
@@ -170,13 +175,14 @@ def naive_simulate(lam, r, j, h, phi, v_stick, t0, x0, v0, t_end, ds=TWO_PI / 10
             x = _y(t, h, phi) + (j if sigma == -1 else 0.0)
             w = v - yd
             if abs(w) >= v_stick and w != 0.0:
-                vplus = yd - r * w
+                rk = min(r * (1.0 + noise * rng.uniform(-1.0, 1.0)), 1.0) if noise > 0.0 else r
+                vplus = yd - rk * w
                 imp_t.append(t)
                 imp_I.append(vplus - v)
                 imp_fl.append(sigma)
                 imp_w.append(w)
                 v = vplus
-                u = abs(r * w)
+                u = abs(rk * w)
             else:
                 v = yd
                 u = 0.0

@@ -97,7 +97,7 @@ def test_badge_says_how_the_gear_sticks_whatever_the_classification_carries():
     fake = types.SimpleNamespace(**{**{k: getattr(cls, k) for k in cls.__dataclass_fields__},
                                     "sticking": "chaos-through-sticking",
                                     "loop_amplification": 4.2, "noisy": True})
-    assert "chaos through sticking, vanishing-noise statistics" in labels.regime_badge(fake)["detail"]
+    assert "chaos through sticking, statistics at this noise level" in labels.regime_badge(fake)["detail"]
     fake.sticking, fake.period, fake.regime = "stick-locked", 3, "B"
     assert "stick-locked, exact, period 3, loop amplification 10^4.2" in \
         labels.regime_badge(fake)["detail"]
@@ -287,14 +287,15 @@ def test_skipped_model_walks_leave_the_document_exact(dash):
 @pytest.mark.parametrize("params, noise, sticking, text", [
     (RattleParams(lam=1.05), True, "stick-locked", "stick-locked, exact, period 1, loop amplification 10^"),
     (RattleParams.paper(lam=3.3, amplitudes=(1.0, 0.25), phases_deg=(0.0, 45.0)), True,
-     "chaos-through-sticking", "chaos through sticking, vanishing-noise statistics"),
+     "chaos-through-sticking", "chaos through sticking, statistics at this noise level"),
     (RattleParams.paper(lam=3.3, amplitudes=(1.0, 0.25), phases_deg=(0.0, 45.0)), False,
      "chaos-through-sticking", "loop chosen by rounding: not resolvable (noise off)"),
 ])
 def test_badge_says_which_kind_of_answer_motion_through_sticking_is(params, noise, sticking, text):
     """The badge tells a robust stick-locked orbit (exact) from chaos through sticking
-    (vanishing-noise statistics) and from a strict run whose loop rounding chose."""
+    (statistics at the run's noise) and from a strict run whose loop rounding chose."""
     from app.ui.labels import badge_html
-    cls = classify(simulate(params, periods=3000, transient=500, lyapunov=True, noise=noise))
+    cls = classify(simulate(params if noise else params.replace(noise=0.0), periods=3000,
+                            transient=500, lyapunov=True))
     html = badge_html(cls)
     assert f'data-sticking="{sticking}"' in html and text in html

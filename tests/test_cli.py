@@ -500,23 +500,31 @@ def test_serve_passes_the_maps_dask_default(monkeypatch, capsys):
 
 def test_strict_switch_reaches_simulate_and_sweep(tmp_path, capsys):
     """--strict runs the strict model: the summary says the loop was chosen by rounding, and
-    the impacts equal simulate(noise=False); without it they equal the default run."""
+    the impacts equal the noiseless simulate; --noise sets the level; a map takes it too."""
     argv = ["simulate", "--lam", "3.3", "--h2", "0.25", "--phi2", "45", "--paper-phases",
             "--periods", "2000", "--transient", "500", "--impacts", str(tmp_path / "s.csv")]
     code, out, _ = run(argv + ["--strict"], capsys)
     assert code == 0 and "not resolvable" in out
     p = RattleParams.paper(lam=3.3, amplitudes=(1.0, 0.25), phases_deg=(0.0, 45.0))
-    strict = simulate(p, periods=2000, transient=500, noise=False)
+    strict = simulate(p.replace(noise=0.0), periods=2000, transient=500)
     np.testing.assert_array_equal(pd.read_csv(tmp_path / "s.csv")["impulse"], strict.impact_impulse)
     code, out, _ = run(argv, capsys)
-    assert code == 0 and "vanishing-noise" in out
+    assert code == 0 and "statistics at this noise level" in out
+    code, out, _ = run(argv[:-1] + [str(tmp_path / "n.csv"), "--noise", "1e-6"], capsys)
+    noisy = simulate(p.replace(noise=1e-6), periods=2000, transient=500)
+    np.testing.assert_array_equal(pd.read_csv(tmp_path / "n.csv")["impulse"], noisy.impact_impulse)
+    code, _, err = run(argv + ["--noise", "0.9"], capsys)
+    assert code == 2 and "noise" in err and "[0, 0.5]" in err
+    code, _, err = run(argv + ["--noise", "1e-6", "--strict"], capsys)
+    assert code == 2 and "--strict" in err
     code, out, _ = run(["sweep", "--lam", "3.3", "--h2", "0.25", "--phi2", "45", "--paper-phases",
                         "--values", "3.3", "--transient", "300", "--record", "2000", "--strict",
                         "--out", str(tmp_path / "w.csv"), "--no-png"], capsys)
     assert code == 0 and "chaos-through-sticking 1 (strict model" in out
     code, _, err = run(["sweep", "--param", "lam", "--values", "1,2", "--param2", "r",
-                        "--values2", "0.5,0.6", "--strict", "--out", str(tmp_path / "m.csv")], capsys)
-    assert code == 2 and "--strict applies to" in err
+                        "--values2", "0.5,0.6", "--strict", "--out", str(tmp_path / "m.csv"),
+                        "--no-png"], capsys)
+    assert code == 0
 
 
 def test_ctrl_c_stops_a_long_sweep_at_once(tmp_path):

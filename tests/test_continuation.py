@@ -7,7 +7,6 @@ stroboscopic map.
 """
 from __future__ import annotations
 
-import inspect
 import math
 import threading
 
@@ -26,10 +25,8 @@ LAM_PD = math.sqrt(GAMMA1**2 + (2 * (1 + R**2) / (1 + R) ** 2) ** 2)
 
 
 def sim(params, **kw):
-    """``simulate`` with the deterministic solver (no noise kicks, where that switch exists)."""
-    if "noise" in inspect.signature(simulate).parameters:
-        kw.setdefault("noise", False)
-    return simulate(params, **kw)
+    """``simulate`` of the deterministic model (no noise): periodic orbits are exact there."""
+    return simulate(params.replace(noise=0.0), **kw)
 
 
 def one_period(orb, at=0.5):
@@ -611,3 +608,12 @@ def test_result_arrays_survive_npz_without_pickle(tmp_path, c_branch):
     assert np.array_equal(back["impacts"]["impulse"], c_branch.impacts["impulse"])
     assert back["bifurcations"]["kind"].tolist() == ["period_doubling"]
     assert back["bifurcations"]["value"].iloc[0] == c_branch.bifurcations[0].value
+
+
+def test_continuation_refuses_an_inadmissible_start():
+    """The (1,2) orbit at Λ = 1.64362 crosses the backlash (gap −4.7): continuing it raises a
+    clear ValueError instead of reporting a grazing of a virtual orbit."""
+    orb = c_orbit(RattleParams(lam=1.64362, r=0.65, j=8.0), 2)
+    assert not orb.admissible
+    with pytest.raises(ValueError, match="not an orbit of the model"):
+        continue_orbit(orb, "lam", bounds=(1.34, 1.84))

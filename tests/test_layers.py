@@ -149,3 +149,70 @@ def test_the_checker_sees_upward_imports(module, source, expected):
 def test_the_checker_accepts_downward_imports(module, source):
     """Imports of the same or a lower layer pass."""
     assert violations(module, source) == []
+
+
+def _module_level_imports(module: str, tree: ast.Module) -> set[str]:
+    """Modules imported by the statements that run when ``module`` is imported (``if`` blocks,
+    ``TYPE_CHECKING`` included; imports inside functions run later and are left out)."""
+    found: set[str] = set()
+    body = list(tree.body)
+    while body:
+        node = body.pop()
+        if isinstance(node, (ast.If, ast.Try)):
+            body += node.body + node.orelse + getattr(node, "handlers", []) + getattr(node, "finalbody", [])
+        elif isinstance(node, ast.ExceptHandler):
+            body += node.body
+        elif isinstance(node, ast.Import):
+            found.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = _resolve(module, False, node.level, node.module)
+            found.add(base)
+            # ``from . import kernel`` names the package; the module it names is an edge too
+            found.update(f"{base}.{a.name}" for a in node.names)
+    return found
+
+
+def module_graph() -> dict[str, set[str]]:
+    """Each module of rattle_core → the modules of rattle_core it imports at import time
+    (packages left out: a package's own imports are its facade)."""
+    mods = {m: p for m, p in project_modules() if m.startswith("rattle_core") and p.name != "__init__.py"}
+    return {m: {t for t in _module_level_imports(m, ast.parse(p.read_text(encoding="utf-8")))
+                if t in mods and t != m} for m, p in mods.items()}
+
+
+def find_cycle(graph: dict[str, set[str]]) -> list[str]:
+    """One import circle of ``graph`` (its modules, first repeated at the end), or []."""
+    state: dict[str, int] = {}
+    stack: list[str] = []
+
+    def visit(m: str) -> list[str]:
+        state[m] = 1
+        stack.append(m)
+        for n in sorted(graph[m]):
+            if state.get(n) == 1:
+                return stack[stack.index(n):] + [n]
+            if n not in state:
+                found = visit(n)
+                if found:
+                    return found
+        stack.pop()
+        state[m] = 2
+        return []
+    for m in sorted(graph):
+        if m not in state:
+            found = visit(m)
+            if found:
+                return found
+    return []
+
+
+def test_no_core_module_imports_itself_through_another():
+    """No import circle between the core's modules at import time, imports under
+    TYPE_CHECKING included."""
+    assert find_cycle(module_graph()) == []
+
+
+def test_the_cycle_finder_sees_a_circle():
+    """The circle finder reports a two-module circle and passes a chain."""
+    assert find_cycle({"a": {"b"}, "b": {"a"}}) == ["a", "b", "a"]
+    assert find_cycle({"a": {"b"}, "b": {"c"}, "c": set()}) == []

@@ -3,7 +3,8 @@
 The venv sees the project venv's packages through a ``.pth`` line (so nothing is downloaded:
 ``--no-deps --no-build-isolation``), but not the checkout, and its interpreter runs from a
 directory outside it.  Checked there: every module of the checkout is installed, the shipped
-diagrams are found inside the package (as ``rattle paper`` and the dashboard look them up),
+diagrams and the sample run-up are found inside the package (as ``rattle paper`` and the
+dashboard look them up),
 ``py.typed`` is present, the dashboard imports as ``rattle_app`` and no top-level ``app`` is
 installed, and the ``rattle`` console script runs.
 """
@@ -27,12 +28,14 @@ from pathlib import Path
 import rattle_core, rattle_cli, rattle_app.main
 from rattle_core.store import assets
 from rattle_core.paper.cases import SWEEP_CASES
+from rattle_core.model.orders import SAMPLE_RUNUP
 found = {name: assets.read_asset(name) is not None for name in assets.list_assets()}
 files = [str(f) for f in importlib.metadata.distribution("rattle-explorer").files]
 print(json.dumps({
     "core": rattle_core.__file__, "cli": rattle_cli.__file__, "app": rattle_app.main.__file__,
     "assets_dir": str(assets.ASSETS_DIR), "assets": found, "sweep_cases": list(SWEEP_CASES),
     "py_typed": (Path(rattle_core.__file__).parent / "py.typed").is_file(),
+    "sample_runup": str(SAMPLE_RUNUP) if SAMPLE_RUNUP.is_file() else "",
     "serve": callable(rattle_app.main.serve) and callable(rattle_app.main.create_app),
     "top_level_app": any(f.startswith("app/") for f in files),
     "app_spec": importlib.util.find_spec("app") is not None,
@@ -78,7 +81,7 @@ def test_the_installed_package_finds_its_assets_and_dashboard(installed):
     assert done.returncode == 0, done.stderr[-3000:]
     got = json.loads(done.stdout)
     site_dir = str(installed["purelib"])
-    for key in ("core", "cli", "app", "assets_dir"):
+    for key in ("core", "cli", "app", "assets_dir", "sample_runup"):
         assert got[key].startswith(site_dir), (key, got[key])
     assert got["assets"] == {name: True for name in got["sweep_cases"]}
     assert got["py_typed"] and got["serve"]

@@ -215,7 +215,7 @@ def test_key_is_stable_across_processes():
 
 
 @pytest.mark.parametrize("kwargs", [dict(periods=True), dict(periods="10"), dict(transient=False),
-                                    dict(noise=1), dict(lyapunov="yes"), dict(periods=1e400)])
+                                    dict(seed=True), dict(seed="1"), dict(lyapunov="yes"), dict(periods=1e400)])
 def test_simulate_refuses_bools_and_text_for_numbers_and_numbers_for_switches(kwargs):
     """simulate names the argument when a bool or text stands for a number, or a number for a
     switch, instead of converting it silently."""

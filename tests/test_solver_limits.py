@@ -101,3 +101,34 @@ def test_runaway_stops_with_a_message(periods):
     p = RattleParams(lam=2e-6, r=1.0, j=1.0, v_stick=0.0)
     with pytest.raises(SolverError, match="max_impacts_per_period"):
         simulate(p, periods=periods, x0=1.5, max_impacts_per_period=1000)
+
+
+#: the audit's link: a small backlash between fast walls, where a time error shows most
+FAST_WALLS = RattleParams(lam=1.0, j=0.01, amplitudes=(1.0, 100.0), phases_deg=(0.0, 0.0))
+
+
+@pytest.mark.parametrize("t0", [2e7, -2e7, 1e9])
+def test_start_times_beyond_double_resolution_are_refused(t0):
+    """A start time whose doubles no longer resolve the motion is refused, naming t0 and its range.
+
+    At |t0| = 2e7 the spacing of doubles is 3.7e-9, and the sampled gear of ``FAST_WALLS``
+    sat 5e-7 outside the backlash (2e-5 at 1e9) before such starts were refused.
+    """
+    with pytest.raises(ValueError, match=r"t0 = .* outside the allowed range \[-1e\+06, 1e\+06\]"):
+        simulate(FAST_WALLS, periods=5, t0=t0)
+
+
+@pytest.mark.parametrize("t0", [-1e6, 1e6, 123456.789])
+def test_allowed_start_times_keep_the_gear_between_its_teeth(t0):
+    """Within the allowed start times, the sampled gear stays in the backlash to the time's resolution.
+
+    The bound is the doubles' spacing at the run's end times the largest relative speed, the
+    error a one-ulp time shift can make; the motion itself never crosses a tooth.
+    """
+    tr = simulate(FAST_WALLS, periods=20, t0=t0)
+    t = np.linspace(tr.t_start, tr.t_end, 100_001)
+    x, v = tr.sample(t)
+    y, y_top = tr.walls(t)
+    yd = y_derivative(t, FAST_WALLS.h, FAST_WALLS.phi, 1)
+    bound = 4 * np.spacing(abs(tr.t_end)) * float(np.max(np.abs(v - yd)))
+    assert float(np.max(y - x)) <= bound and float(np.max(x - y_top)) <= bound

@@ -279,7 +279,7 @@ def test_summary_equals_classify_arrays_value_for_value():
     seen = set()
     for base, vals in runs:
         # strict mode keeps a chaotic window that sticks ("D", True) among the responses
-        chunk = run_chunk(base, "lam", np.array(vals), 150, 40, None, 0.0, noise=False)
+        chunk = run_chunk(base.replace(noise=0.0), "lam", np.array(vals), 150, 40, None, 0.0)
         summary = _summarise(chunk, 40)
         off = 0
         for k, val in enumerate(vals):

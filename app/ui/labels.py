@@ -87,7 +87,7 @@ def sticking_text(cls: Any) -> str:
     amp_text = f", loop amplification 10^{amp:.1f}" if isinstance(amp, float) and math.isfinite(amp) else ""
     if kind == "chaos-through-sticking":
         if getattr(cls, "noisy", True):
-            return "chaos through sticking, vanishing-noise statistics"
+            return "chaos through sticking, statistics at this noise level"
         return "loop chosen by rounding: not resolvable (noise off)"
     if kind == "stick-locked" and cls.regime != "A":  # A never leaves the wall: nothing to lock
         period = f", period {cls.period}" if cls.period else ""
@@ -139,35 +139,54 @@ def table_html(rows: list[tuple[str, ...]], css: str, head: tuple[str, ...] | No
     return "".join(out)
 
 
-def metrics_rows(cls: Any, tr: Any, phys: Any = None) -> list[tuple[str, str]]:
-    """Rattle metrics of the recorded window: dimensionless, or in SI units with ``phys``."""
-    if phys is None:
-        rows = [
-            ("impacts / period (active, reverse)",
-             f"{num(cls.active_per_period)}, {num(cls.reverse_per_period)}"),
-            ("mean |Ĩ| (active, reverse)",
-             f"{num(cls.mean_impulse_active)}, {num(cls.mean_impulse_reverse)}"),
-            ("RMS Ĩ (active, reverse)", f"{num(cls.rms_impulse_active)}, {num(cls.rms_impulse_reverse)}"),
-            ("rattle intensity Σ Ĩ² / period", num(cls.intensity)),
-        ]
-    else:
-        f, s = phys.frequency_hz, phys.impulse_scale
+def pm(value: float, ci95: float | None = None, scale: float = 1.0) -> str:
+    """``value ± half-width`` (scaled), or the value alone when the half-width is 0 or unknown."""
+    if value is None or not math.isfinite(value):
+        return "–"
+    if ci95 is None or not math.isfinite(ci95) or ci95 <= 0.0:
+        return num(value * scale)
+    return f"{num(value * scale)} ± {num(ci95 * scale, 2)}"
 
-        def sc(v: float, k: float) -> float:
-            return v * k if v is not None and math.isfinite(v) else math.nan
-        rows = [
-            ("impact rate (active, reverse)",
-             f"{num(sc(cls.active_per_period, f))}, {num(sc(cls.reverse_per_period, f))} 1/s"),
-            ("mean |I| (active, reverse)",
-             f"{num(sc(cls.mean_impulse_active, s))}, {num(sc(cls.mean_impulse_reverse, s))} N·s"),
-            ("RMS I (active, reverse)",
-             f"{num(sc(cls.rms_impulse_active, s))}, {num(sc(cls.rms_impulse_reverse, s))} N·s"),
-            ("rattle intensity Σ I² per second",
-             f"{num(sc(sc(cls.intensity, s * s), f))} N²·s"),
-        ]
+
+def metrics_rows(cls: Any, tr: Any, phys: Any = None,
+                 intervals: dict | None = None) -> list[tuple[str, str]]:
+    """Rattle metrics of the recorded window: dimensionless, or in SI units with ``phys``.
+
+    ``intervals`` (statistic → ``Estimate``, from ``batch_means``) adds each statistic's 95 %
+    half-width where the run is not periodic, and a row that says what it is.
+    """
+    est = intervals if intervals is not None and cls.period == 0 else {}
+
+    def ci(key: str) -> float | None:
+        e = est.get(key)
+        return None if e is None else e.ci95
+    f, s = (1.0, 1.0) if phys is None else (phys.frequency_hz, phys.impulse_scale)
+    if phys is None:
+        names = ("impacts / period (active, reverse)", "mean |Ĩ| (active, reverse)",
+                 "RMS Ĩ (active, reverse)", "rattle intensity Σ Ĩ² / period")
+        units = ("", "", "", "")
+    else:
+        names = ("impact rate (active, reverse)", "mean |I| (active, reverse)",
+                 "RMS I (active, reverse)", "rattle intensity Σ I² per second")
+        units = (" 1/s", " N·s", " N·s", " N²·s")
+    total = (f" (total {pm(cls.impacts_per_period, ci('impacts_per_period'), f)})"
+             if est else "")
+    rows = [
+        (names[0], f"{num(cls.active_per_period * f)}, {num(cls.reverse_per_period * f)}"
+                   f"{units[0]}{total}"),
+        (names[1], f"{pm(cls.mean_impulse_active, ci('mean_active_impulse'), s)}, "
+                   f"{pm(cls.mean_impulse_reverse, ci('mean_reverse_impulse'), s)}{units[1]}"),
+        (names[2], f"{num(cls.rms_impulse_active * s)}, {num(cls.rms_impulse_reverse * s)}"
+                   f"{units[2]}"),
+        (names[3], f"{pm(cls.intensity, ci('intensity'), s * s * f)}{units[3]}"),
+    ]
     seconds = f" ({num(1e3 * tr.periods * phys.period_s)} ms)" if phys is not None else ""
     rows += [("time in permanent contact", percent(cls.stick_fraction)),
              ("impacts recorded", f"{len(tr.impact_t)} in {tr.periods:.0f} periods{seconds}")]
+    if est:
+        n = next(iter(est.values())).n
+        rows.append(("±", f"95 % interval of this run ({n} batch means); chaotic statistics "
+                          "also scatter between runs and with the noise level"))
     return rows
 
 

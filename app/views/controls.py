@@ -23,7 +23,8 @@ from ..ui.plots import file_stem
 from ..ui.widgets import Field, _label_html, message
 
 SLIDERS = ("lam", "r", "j", "h2", "phi2")
-ADVANCED = ("periods", "shown", "transient", "v_stick", "x0", "v0", "t0", "harmonics", "strobe")
+ADVANCED = ("periods", "shown", "transient", "v_stick", "noise", "x0", "v0", "t0", "harmonics",
+            "strobe")
 PHASE_OPTIONS = {"paper: sin(k t + φ_k)": "paper", "core: cos(k t − φ_k)": "core"}
 
 
@@ -42,7 +43,7 @@ class Controls(pn.viewable.Viewer):
         s = self.state
         self.fields = {n: Field(s, n) for n in SLIDERS}
         self.fields.update({n: Field(s, n) for n in ("periods", "shown", "transient", "v_stick",
-                                                     "v0", "t0", "strobe")})
+                                                     "noise", "v0", "t0", "strobe")})
         self.fields["x0"] = Field(s, "x0", placeholder="middle of the backlash")
         self.phases = pn.widgets.RadioButtonGroup(options=PHASE_OPTIONS, value=s.phases,
                                                   css_classes=["ctl-phases"], color="default",
@@ -76,7 +77,9 @@ class Controls(pn.viewable.Viewer):
         s.param.watch(self._name_download, "result")
         self._name_download()
         self.advanced = pn.Card(
-            *[self.fields[n] for n in ("periods", "shown", "transient", "v_stick")],
+            *[self.fields[n] for n in ("periods", "shown", "transient", "v_stick", "noise")],
+            _note("ε: every impact rebounds with r·(1 ± ε); chaotic statistics may depend on "
+                  "it (docs/model.md, 'Noise')"),
             _note("Initial state (a click on the Poincaré map sets it)"),
             *[self.fields[n] for n in ("x0", "v0", "t0")],
             _note("More harmonics, in the phase convention shown"),

@@ -20,7 +20,7 @@ import panel as pn
 import param
 from holoviews.operation.datashader import datashade, dynspread
 
-from ..core import excitation
+from ..core import batch_means, excitation
 from ..ui.labels import MARK_COLOR, badge_html, metrics_rows, table_html
 from ..ui.plots import (TOOLS, HoloViewsPane, Zoom, caption, file_stem, padded, save_as,
                     section_points, weak_hook)
@@ -206,4 +206,5 @@ class RegimeView(pn.viewable.Viewer):
         if run is None:
             return
         self.badge.object = badge_html(run.cls)
-        self.metrics.object = table_html(metrics_rows(run.cls, run.tr, run.phys), "rattle-metrics")
+        self.metrics.object = table_html(
+            metrics_rows(run.cls, run.tr, run.phys, batch_means(run.tr, run.cls)), "rattle-metrics")

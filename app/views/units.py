@@ -166,7 +166,7 @@ class UnitsView(pn.viewable.Viewer):
             if self.table.object:
                 self.table.object = ""
             return
-        rows = [tuple(r) for r in physical_table(run.phys)]
+        rows = [tuple(r) for r in physical_table(run.phys, run.params.noise)]
         self.table.object = table_html(rows, "units-params", ("quantity", "physical", "dimensionless"))
 
 

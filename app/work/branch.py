@@ -120,7 +120,7 @@ def _save(path: Path, result: Branches, key: str | None = None, request: Any = N
 
 def _load(path: Path) -> tuple[Branches, dict]:
     with np.load(path, allow_pickle=False) as z:
-        arrays = {k: z[k] for k in z.files if k != "meta"}
+        arrays = {k: z[k] for k in z.files if k not in ("meta", "digest")}
         meta = json.loads(str(z["meta"]))
     return Branches(arrays, meta), meta
 

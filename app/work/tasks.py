@@ -78,3 +78,15 @@ def regime_map(params: RattleParams, phys: Any, x_name: str, x_values: np.ndarra
         return run_map(params, phys, x_name, x_values, y_name, y_values, use_cache=True,
                        progress=report, cancel=cancelled, transient=transient, record=record,
                        **kwargs)
+
+
+def noise_check(params: RattleParams, runs: int, periods: int, transient: int) -> dict:
+    """The noise sensitivity of ``params`` (``rattle_core.noise_sensitivity`` at the default
+    levels and the run's own), as plain data: the verdict, its reasons and one row per level."""
+    from ..core import NOISE_LEVELS as DEFAULT_LEVELS
+    from ..core import noise_sensitivity
+    levels = sorted(set(DEFAULT_LEVELS) | {params.noise} - {0.0})
+    rep = noise_sensitivity(params, levels, runs=runs, periods=periods, transient=transient,
+                            progress=report, cancel=cancelled)
+    return {"sensitive": rep.sensitive, "describe": rep.describe(), "reasons": list(rep.reasons),
+            "table": rep.table.to_dict("list"), "levels": list(rep.levels)}

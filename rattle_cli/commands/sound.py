@@ -38,8 +38,7 @@ def run(args: argparse.Namespace) -> int:
         raise CLIError("--excitation-hz is for dimensionless runs; in physical units the engine "
                        "speed (--rpm, --order) sets the time scale")
     modes = sound.parse_modes(args.modes) if args.modes is not None else None
-    tr = simulate(params, periods=args.periods, transient=args.transient, x0=args.x0, v0=args.v0,
-                  noise=not args.strict)
+    tr = simulate(params, periods=args.periods, transient=args.transient, x0=args.x0, v0=args.v0)
     signal, rate = sound.synthesize(tr, sample_rate=args.rate, excitation_hz=args.excitation_hz,
                                     physical=phys, modes=modes, tail=args.tail,
                                     polarity=args.polarity)

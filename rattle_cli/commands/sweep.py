@@ -13,6 +13,8 @@ from rattle_core.analysis.vocabulary import LETTERS
 from rattle_core.batch.executor import dask_session
 from rattle_core.batch.plan import plan_map
 from rattle_core.batch.sweep import check_budget, sweep, validate_sweep_args
+from rattle_core.model.gearbox import Excitation
+from rattle_core.model.orders import OrderMap
 from rattle_core.model.units import rpm_sweep
 from rattle_core.paper.drawing import map_png, sweep_png
 from rattle_core.store.cache import cached_sweep
@@ -64,6 +66,14 @@ def add_parser(sub) -> None:
     m.add_argument("--num2", type=int, help="number of --param2 values (default 100)")
     m.add_argument("--values2", type=float_list("--values2"), metavar="V[,V...]",
                    help="explicit --param2 values")
+    s.add_argument("--orders-from", dest="orders_from", metavar="FILE.csv",
+                   help="physical units: take the harmonics at each engine speed from a measurement "
+                        "(time_s, speed_rpm) or an order table (rattle orders): harmonic n is engine "
+                        "order n × --order, its θ and φ interpolated at each rpm; the --theta-amp "
+                        "values are replaced")
+    s.add_argument("--orders-harmonics", dest="orders_harmonics", type=int, default=3,
+                   metavar="K", help="harmonics taken from --orders-from (default 3: orders 2, 4, 6 "
+                                     "with --order 2)")
     s.add_argument("--out", required=True, metavar="FILE", help="output file: .npz, .csv or .parquet")
     s.add_argument("--png", metavar="FILE", help="PNG of the diagram (default: OUT with .png)")
     s.add_argument("--no-png", dest="no_png", action="store_true", help="do not write a PNG")
@@ -137,41 +147,60 @@ def run(args: argparse.Namespace) -> int:
     for flag in ("x0", "v0"):
         finite(getattr(args, flag), f"--{flag.replace('_', '-')}")
     params, phys = build_params(args)
+    follow = _follow(args, phys)
     if args.param2 is not None:
-        return _run_map(args, out, png, params, phys)
+        return _run_map(args, out, png, params, phys, follow)
     for flag in ("start2", "stop2", "num2", "values2"):
         if getattr(args, flag) is not None:
             raise CLIError(f"--{flag} needs --param2")
     values = _values(args)
     name = args.param
     rpm = None
+    columns = None
     if name == "rpm":
         if phys is None:
             raise CLIError("--param rpm needs physical units (--inertia, --radius, --drag-torque, "
                            "--backlash-um, --rpm, --theta-amp or --alpha-amp)")
-        rpm = values
-        name, values = rpm_sweep(phys, rpm)
+        if follow is not None:
+            columns = follow.columns(phys, values)
+        else:
+            rpm = values
+            name, values = rpm_sweep(phys, rpm)
+    elif follow is not None:
+        raise CLIError("--orders-from takes harmonics at each engine speed: use it with --param rpm")
     transient = 500 if args.transient is None else args.transient
     record = 200 if args.record is None else args.record
     # Reject bad requests before any progress bar or worker starts, so the error stays one line.
-    values, transient, record = validate_sweep_args(name, values, transient, record, args.mode)
-    for v in (float(values.min()), float(values.max())):
-        params.with_value(name, v)
+    values, transient, record = validate_sweep_args(name, values, transient, record, args.mode,
+                                                    columns)
+    if columns is None:
+        for v in (float(values.min()), float(values.max())):
+            params.with_value(name, v)
     scheduler = _scheduler(args)
     progress = Progress(f"sweep {args.param}", enabled=not args.quiet, total=len(values))
     compute = sweep if args.no_cache else cached_sweep
     try:
         result = _run_on(args, scheduler, lambda executor: compute(
             params, name, values, transient=transient, record=record, mode=args.mode, x0=args.x0,
-            v0=args.v0, progress=progress, executor=executor, noise=not args.strict))
+            v0=args.v0, progress=progress, executor=executor, columns=columns))
     finally:
         progress.close()
-    table, summary = sweep_frames(result, phys, None if rpm is None else (values, rpm))
+    if columns is not None:
+        table, summary = sweep_frames(result)
+        table.insert(0, "rpm", table["value"])
+        summary.insert(0, "rpm", summary["value"])
+        scale = {v: follow.follow(phys, v).impulse_scale for v in values.tolist()}
+        table["impulse_Ns"] = table["impulse"] * table["rpm"].map(scale)
+    else:
+        table, summary = sweep_frames(result, phys, None if rpm is None else (values, rpm))
     settings = dict(result.settings)
     if phys is not None:
         settings["physical"] = dataclasses.asdict(phys)
     if rpm is not None:
         settings["rpm"] = rpm.tolist()
+    if columns is not None:
+        settings["orders_from"] = str(args.orders_from)
+        settings["rpm"] = values.tolist()
     result = dataclasses.replace(result, settings=settings)
     summary_path = out.with_name(out.stem + "_summary" + out.suffix)
     if out.suffix.lower() == ".npz":
@@ -196,8 +225,8 @@ def run(args: argparse.Namespace) -> int:
         info(args, "regimes: " + ", ".join(f"{k} {v}" for k, v in counts.items()))
         kinds = result.summary["sticking"].value_counts()
         if len(kinds.drop("", errors="ignore")):
-            how = ("strict model: loops chosen by rounding" if args.strict
-                   else "vanishing-noise statistics")
+            how = ("strict model: loops chosen by rounding" if params.noise == 0
+                   else f"statistics at noise {params.noise:g}, one run per value")
             info(args, "through sticking: " + ", ".join(
                 f"{kind} {n}" for kind, n in kinds.items() if kind)
                 + (f" ({how})" if "chaos-through-sticking" in kinds else ""))
@@ -207,21 +236,33 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _run_map(args: argparse.Namespace, out: Path, png: Path | None, params, phys) -> int:
+def _follow(args: argparse.Namespace, phys):
+    """The excitation that follows engine speed (``--orders-from``), or None."""
+    if args.orders_from is None:
+        return None
+    if phys is None:
+        raise CLIError("--orders-from needs physical units (--inertia, --radius, --drag-torque, "
+                       "--backlash-um, --rpm, --theta-amp)")
+    k = args.orders_harmonics
+    if not 1 <= k <= 32:
+        raise CLIError(f"--orders-harmonics {k} is outside the allowed range [1, 32]")
+    omap = OrderMap.read(args.orders_from, [phys.order * n for n in range(1, k + 1)])
+    return Excitation(engine_order=phys.order, harmonics=k, order_map=omap)
+
+
+def _run_map(args: argparse.Namespace, out: Path, png: Path | None, params, phys,
+             follow=None) -> int:
     """A 2-D regime/intensity map, or basins of attraction, to a file plus PNG."""
     names = (args.param, args.param2)
     if args.mode != "fresh":
         raise CLIError("2-D maps start every point from the same state; drop --mode continuation")
-    if args.strict:
-        raise CLIError("--strict applies to simulate, sound and 1-D sweeps; maps show the "
-                       "attractor under vanishing noise")
     xv = _values(args, "", default_num=100)
     yv = _values(args, "2", default_num=100)
     transient = 300 if args.transient is None else args.transient
     record = 100 if args.record is None else args.record
     labels = ("--param", "--param2")
     # Work out (and reject) how the grid maps onto the model before starting any workers.
-    basin = plan_map(params, phys, names[0], xv, names[1], yv, labels)[0] == "basin"
+    basin = plan_map(params, phys, names[0], xv, names[1], yv, labels, follow)[0] == "basin"
     check_budget(xv.size * yv.size * (transient + record), "points × (transient + record)")
     scheduler = _scheduler(args)
     progress = Progress(f"map {names[0]} × {names[1]}", enabled=not args.quiet,
@@ -232,7 +273,7 @@ def _run_map(args: argparse.Namespace, out: Path, png: Path | None, params, phys
     try:
         result = _run_on(args, scheduler, lambda executor: run_map(
             params, phys, names[0], xv, names[1], yv, use_cache=not args.no_cache, labels=labels,
-            executor=executor, **common))
+            executor=executor, follow=follow, **common))
     finally:
         progress.close()
     if out.suffix.lower() == ".npz":

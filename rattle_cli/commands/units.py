@@ -24,7 +24,7 @@ def run(args: argparse.Namespace) -> int:
         info(args, "(give physical inputs, e.g. --inertia --radius --drag-torque --backlash-um "
                    "--rpm --theta-amp, to see them side by side)")
         return 0
-    rows = physical_table(phys)
+    rows = physical_table(phys, params.noise)
     w0 = max(len(r[0]) for r in rows)
     w1 = max(len(r[1]) for r in rows)
     print(f"{'quantity':<{w0}}  {'physical':<{w1}}  dimensionless")

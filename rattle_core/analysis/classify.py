@@ -16,9 +16,10 @@ Definitions (all over the recorded window of ``P`` forcing periods, after the tr
   capture into a stick phase ended an excursion that amplified perturbations by less than
   1e10 (the motion through sticking is exact and resolvable; ``loop_amplification`` gives the
   largest, as log10); ``"chaos-through-sticking"`` when some capture was decided by rounding
-  (docs/model.md, "Sticking erases the past").  With ``noise=True`` (the default) the window's
-  statistics are then those of the model under vanishing noise (``noisy``); with
-  ``noise=False`` they are those of a loop chosen by rounding, and the label says so.
+  (docs/model.md, "Sticking erases the past").  With noise (``params.noise > 0``, the default)
+  the window's statistics are then those at that noise level (``noisy``), which they may
+  depend on (docs/model.md, "What the statistics mean"); without noise they are those of a
+  loop chosen by rounding, and the label says so.
 * **rattle intensity**: ``Σ Ĩ² / P``, the impulse energy per forcing period; mean and RMS
   ``|Ĩ|`` per flank.
 * **regime** (paper §4), first match wins: ``A`` permanent contact (no impact, stuck the
@@ -92,7 +93,7 @@ class Classification:
         if self.sticking == "stick-locked" and math.isfinite(self.loop_amplification):
             parts.append(f"stick-locked, loop amplification 10^{self.loop_amplification:.1f}")
         elif self.sticking == "chaos-through-sticking":
-            parts.append("chaos through sticking, vanishing-noise statistics" if self.noisy else
+            parts.append("chaos through sticking, statistics at this noise level" if self.noisy else
                          "loop chosen by rounding (noise off): not resolvable in double precision")
         if not math.isnan(self.lyapunov):
             parts.append(f"λ = {self.lyapunov:.3g}")
@@ -296,14 +297,15 @@ def classify_batch(counts: np.ndarray, impulse: np.ndarray, flank: np.ndarray,
                    strobe_x: np.ndarray, strobe_v: np.ndarray, periods: float,
                    stick_time: np.ndarray, lyapunov: np.ndarray, j: np.ndarray,
                    rounding: np.ndarray | None = None, loop_amplification: np.ndarray | None = None,
-                   kicks: np.ndarray | None = None) -> dict:
+                   kicks: np.ndarray | None = None, period_tol: float = PERIOD_TOL) -> dict:
     """Classify many windows at once; the same numbers as :func:`classify_arrays` for each.
 
     ``impulse`` and ``flank`` hold the impacts of all windows one after the other
     (``counts[i]`` of them for window i); ``strobe_x``/``strobe_v`` have one row per window;
     ``stick_time``, ``lyapunov``, ``j`` and the optional ``rounding`` (a capture decided by
     rounding), ``loop_amplification`` (log10) and ``kicks`` (release kicks applied) one value
-    per window; ``periods`` is common.
+    per window; ``periods`` is common.  ``period_tol`` replaces ``PERIOD_TOL`` (ensembles
+    recognise an orbit blurred by a larger noise level with it).
 
     Returns a dict of arrays: ``regime`` (codes into :data:`REGIME_LETTERS`), ``period``,
     ``n_active``, ``n_reverse``, ``sticking`` (codes into :data:`STICKING_KINDS`) and every
@@ -328,7 +330,7 @@ def classify_batch(counts: np.ndarray, impulse: np.ndarray, flank: np.ndarray,
                      np.ascontiguousarray(strobe_v, dtype=np.float64).reshape(nv, -1),
                      float(periods), np.ascontiguousarray(stick_time, dtype=np.float64).reshape(nv),
                      lyap, np.ascontiguousarray(j, dtype=np.float64).reshape(nv),
-                     MAX_PERIOD, PERIOD_TOL, LYAP_CHAOS, out["regime"], out["period"],
+                     MAX_PERIOD, float(period_tol), LYAP_CHAOS, out["regime"], out["period"],
                      out["n_active"], out["n_reverse"], out["active_per_period"],
                      out["reverse_per_period"], out["stick_fraction"], out["chaotic"],
                      out["intensity"], out["mean_impulse_active"], out["rms_impulse_active"],

@@ -70,6 +70,32 @@ CONTACT_VALUES: dict[int, str] = {0: "none", **FLANK_VALUES}
 STICK_COLOUR = "#f39c12"
 
 
+@dataclasses.dataclass(frozen=True)
+class CurveStyle:
+    """How a bifurcation curve of the atlas is drawn: legend label, colour, dash pattern
+    (a Bokeh ``line_dash`` name, which matplotlib's :data:`MPL_DASH` translates)."""
+
+    label: str
+    colour: str
+    dash: str
+
+
+#: One line style per kind of bifurcation curve, in the dashboard and in PNGs alike.
+CURVE_STYLES: dict[str, CurveStyle] = {
+    "contact": CurveStyle("contact boundary Λ_c (rattle starts)", "#000000", "solid"),
+    "fold": CurveStyle("fold (multiplier +1)", "#8e44ad", "dashed"),
+    "period_doubling": CurveStyle("period doubling (multiplier −1)", "#c0392b", "solid"),
+    "grazing": CurveStyle("grazing (an impact appears)", "#16a085", "dotdash"),
+    "stick_onset": CurveStyle("onset of sticking", "#d35400", "dotted"),
+}
+#: matplotlib's spelling of the Bokeh dash names used above.
+MPL_DASH = {"solid": "-", "dashed": "--", "dotdash": "-.", "dotted": ":"}
+#: Codimension-two points: marker and short label.
+CODIM2_MARKERS = {"grazing_period_doubling": ("o", "graze+PD"), "fold_period_doubling":
+                  ("s", "fold+PD"), "grazing_fold": ("D", "graze+fold"),
+                  "grazing_sticking": ("v", "graze+stick"), "turn": ("^", "turn")}
+
+
 def regime_letters(codes) -> np.ndarray:
     """Letters of regime codes (an array of str; ``""`` for −1, a point not run)."""
     table = np.array(LETTERS + ("",), dtype=object)
@@ -94,9 +120,10 @@ def flank_colours(flank) -> np.ndarray:
     return np.where(np.asarray(flank) > 0, FLANK_COLOURS[ACTIVE], FLANK_COLOURS[REVERSE]).astype(object)
 
 
-def physical_table(phys: PhysicalParams) -> list[tuple[str, str, str]]:
+def physical_table(phys: PhysicalParams, noise: float | None = None) -> list[tuple[str, str, str]]:
     """Rows ``(quantity, physical value, dimensionless value)`` of a physical parameter set, for
-    showing both systems side by side (``rattle units``, the dashboard's units panel)."""
+    showing both systems side by side (``rattle units``, the dashboard's units panel); with
+    ``noise``, a row says what the model's noise level means for this gear."""
     p = phys.to_dimensionless()
     unit = "rad" if phys.excitation == "displacement" else "rad/s²"
     sym = "θ" if phys.excitation == "displacement" else "α"
@@ -116,6 +143,9 @@ def physical_table(phys: PhysicalParams) -> list[tuple[str, str, str]]:
                      f"{phys.amplitudes[k - 1]:.6g} {unit}, {phys.phases_deg[k - 1]:.6g}°",
                      f"h_{k} = {p.amplitudes[k - 1]:.6g}, φ_{k} = {p.phases_deg[k - 1]:.6g}°"))
     rows.append(("restitution r", f"{phys.r:.6g}", f"{p.r:.6g}"))
+    if noise is not None:
+        rows.append(("restitution scatter per impact", f"r = {phys.r:.4g} ± {phys.r * noise:.3g}",
+                     f"noise ε = {noise:g}"))
     rows.append(("limit impact velocity", f"{phys.v_stick_mps:.6g} m/s", f"v_stick = {p.v_stick:.6g}"))
     rows.append(("impulse scale m ω H₁", f"{phys.impulse_scale:.6g} N·s", "Ĩ = 1"))
     rows.append(("time scale 1/ω", f"{1.0 / phys.omega:.6g} s", "t = 1"))

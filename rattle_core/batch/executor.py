@@ -104,8 +104,8 @@ def connect(address: str, workers: int = LOCAL_WORKERS, timeout: str = "10s"
     address = check_scheduler(address)
     if address == "":
         raise ValueError("connect needs 'local' or a scheduler address, got ''")
-    if not 1 <= int(workers) <= 256:
-        raise ValueError(f"workers = {workers} is outside the allowed range [1, 256]")
+    from ..model.params import check_int
+    workers = check_int("workers", workers, 1, 256)
     try:
         from dask.distributed import Client, LocalCluster
     except ImportError:

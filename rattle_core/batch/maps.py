@@ -30,9 +30,9 @@ import numpy as np
 from ..analysis.classify import MAX_PERIOD, detect_period
 from ..analysis.vocabulary import LETTERS, regime_letters
 from ..model.excitation import excitation
-from ..model.params import RattleParams, check_range, parse_name
+from ..model.params import RattleParams, check_int, check_range, check_reals, parse_name
 from ..solver.trajectory import MAX_PERIODS, SOLVER_VERSION, _check_int
-from .chunks import run_chunk, summary_arrays
+from .chunks import check_start, run_chunk, summary_arrays
 from .executor import run_chunks
 from .sweep import SCHEMA_VERSION, check_budget
 
@@ -74,14 +74,9 @@ class MapResult:
 
 
 def _grid_args(name: str, values, label: str) -> np.ndarray:
-    try:
-        vals = np.asarray(values, dtype=np.float64).ravel()
-    except (TypeError, ValueError):
-        raise ValueError(f"{label} must be numbers, got {values!r}") from None
+    vals = check_reals(label, values)
     if vals.size == 0:
         raise ValueError(f"{label} is empty; give at least one value")
-    if not np.all(np.isfinite(vals)):
-        raise ValueError(f"{label} must all be finite, got {float(vals[~np.isfinite(vals)][0])!r}")
     return vals
 
 
@@ -177,6 +172,8 @@ def regime_map(base: RattleParams, x_name: str, x_values, y_name: str, y_values,
     progress, cancel, executor, chunk_size
         As for :func:`~rattle_core.batch.sweep.sweep`.
     """
+    if not isinstance(base, RattleParams):
+        raise ValueError(f"base must be a RattleParams, got {type(base).__name__}")
     parse_name(x_name)
     parse_name(y_name)
     if x_name == y_name:
@@ -184,10 +181,9 @@ def regime_map(base: RattleParams, x_name: str, x_values, y_name: str, y_values,
     xv = _grid_args(x_name, x_values, "x_values")
     yv = _grid_args(y_name, y_values, "y_values")
     transient, record = _check_size(len(xv), len(yv), transient, record)
-    if x0 is not None:
-        x0 = check_range("x0", x0, -1e6, 1e6)
-    v0 = check_range("v0", v0, -1e6, 1e6)
     gx, gy = np.meshgrid(xv, yv)
+    x0 = check_start(base, {x_name: gx.ravel(), y_name: gy.ravel()}, x0)
+    v0 = check_range("v0", v0, -1e6, 1e6)
     columns = {x_name: gx.ravel(), y_name: gy.ravel()}
     results, cancelled = _run_grid(base, columns, x0, v0, transient, record, progress, cancel,
                                    executor, chunk_size)
@@ -220,6 +216,7 @@ def basin_map(params: RattleParams, x0_values, v0_values, transient: int = 300,
     """
     if not isinstance(params, RattleParams):
         raise ValueError(f"params must be a RattleParams, got {type(params).__name__}")
+    decimals = check_int("decimals", decimals, 0, 15)
     xv = _grid_args("x0", x0_values, "x0_values")
     vv = _grid_args("v0", v0_values, "v0_values")
     y0 = float(excitation(0.0, params.h, params.phi))

@@ -9,17 +9,39 @@ dimensionless sweep it is, and :func:`rpm_from_sweep` goes back.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from .params import check_range
 
-if TYPE_CHECKING:  # the functions take a PhysicalParams, which units defines with these
-    from .units import PhysicalParams
-
 RPM_RANGE = (0.0, 1.0e5)             # rev/min, open at 0
 ORDER_RANGE = (0.0, 100.0)           # excitation cycles per revolution, open at 0
+
+
+class PhysicalGear(Protocol):
+    """What these functions read of a gear in physical units.
+
+    :class:`rattle_core.model.units.PhysicalParams` is one; units imports this module, so this
+    module names the attributes it needs instead of importing it back.
+    """
+
+    excitation: str
+    order: float
+    rpm: float
+    amplitudes: tuple[float, ...]
+    backlash: float
+
+    @property
+    def mass(self) -> float: ...
+    @property
+    def force(self) -> float: ...
+    @property
+    def H1(self) -> float: ...
+    @property
+    def drive_radius(self) -> float: ...
+    @property
+    def lam(self) -> float: ...
 
 
 def omega_from_rpm(rpm: Any, order: float = 2.0) -> np.ndarray | float:
@@ -62,7 +84,7 @@ def _check_rpm_array(rpm: Any) -> np.ndarray:
     return arr
 
 
-def lam_from_rpm(phys: PhysicalParams, rpm: Any) -> np.ndarray:
+def lam_from_rpm(phys: PhysicalGear, rpm: Any) -> np.ndarray:
     """Λ at each engine speed, every other physical input of ``phys`` held.
 
     Displacement amplitudes held: ``Λ(rpm) = m R_d θ₁ ω(rpm)² / F``, which grows as ``rpm²``.
@@ -86,7 +108,7 @@ def lam_from_rpm(phys: PhysicalParams, rpm: Any) -> np.ndarray:
     return phys.mass * phys.H1 * omega**2 / phys.force
 
 
-def j_from_rpm(phys: PhysicalParams, rpm: Any) -> np.ndarray:
+def j_from_rpm(phys: PhysicalGear, rpm: Any) -> np.ndarray:
     """Backlash ratio ``j = b / H₁`` at each engine speed, every other input of ``phys`` held.
 
     Constant with displacement amplitudes.  With acceleration amplitudes, ``H₁ = R_d α₁ / ω²``, so
@@ -99,7 +121,7 @@ def j_from_rpm(phys: PhysicalParams, rpm: Any) -> np.ndarray:
     return phys.backlash * omega**2 / (phys.drive_radius * phys.amplitudes[0])
 
 
-def impulse_scale_from_rpm(phys: PhysicalParams, rpm: Any) -> np.ndarray:
+def impulse_scale_from_rpm(phys: PhysicalGear, rpm: Any) -> np.ndarray:
     """Impulse scale ``m ω H₁`` [N·s] at each engine speed, other inputs of ``phys`` held.
 
     ``ω = order × 2π × rpm / 60``; ``H₁ = R_d θ₁`` (displacement amplitudes held) or
@@ -114,7 +136,7 @@ def impulse_scale_from_rpm(phys: PhysicalParams, rpm: Any) -> np.ndarray:
     return phys.mass * omega * H1
 
 
-def rpm_from_lam(phys: PhysicalParams, lam: Any) -> np.ndarray:
+def rpm_from_lam(phys: PhysicalGear, lam: Any) -> np.ndarray:
     """Engine speed giving each Λ, other inputs of ``phys`` held (displacement amplitudes only).
 
     Inverse of :func:`lam_from_rpm`: ``ω = sqrt(Λ F / (m H₁))``, ``rpm = 60 ω / (2π order)``.
@@ -129,7 +151,7 @@ def rpm_from_lam(phys: PhysicalParams, lam: Any) -> np.ndarray:
     return 60.0 * omega / (2.0 * math.pi * phys.order)
 
 
-def rpm_sweep(phys: PhysicalParams, rpm: Any) -> tuple[str, np.ndarray]:
+def rpm_sweep(phys: PhysicalGear, rpm: Any) -> tuple[str, np.ndarray]:
     """The dimensionless sweep equivalent to sweeping engine speed: ``(name, values)``.
 
     With displacement amplitudes held only Λ changes with speed, so the sweep is
@@ -142,7 +164,7 @@ def rpm_sweep(phys: PhysicalParams, rpm: Any) -> tuple[str, np.ndarray]:
     return "j", j_from_rpm(phys, rpm)
 
 
-def rpm_from_sweep(phys: PhysicalParams, name: str, values: Any) -> np.ndarray:
+def rpm_from_sweep(phys: PhysicalGear, name: str, values: Any) -> np.ndarray:
     """Inverse of :func:`rpm_sweep`: the engine speeds of a sweep of ``lam`` (displacement
     amplitudes held, :func:`rpm_from_lam`) or of ``j`` (acceleration amplitudes held,
     ``j ∝ rpm²``)."""

@@ -13,7 +13,9 @@ import dataclasses
 import hashlib
 import json
 import math
+import numbers
 import re
+from collections.abc import Mapping, Set
 from typing import Any, Iterable
 
 import numpy as np
@@ -27,6 +29,11 @@ J_RANGE = (0.0, 1.0e4)  # open at 0
 AMPLITUDE_RANGE = (0.0, 100.0)
 PHASE_RANGE_DEG = (-1.0e6, 1.0e6)
 V_STICK_RANGE = (0.0, 10.0)
+NOISE_RANGE = (0.0, 0.5)
+#: Default relative scatter of the restitution coefficient (docs/model.md, "Noise"): small
+#: enough that robust periodic orbits stay exact to 1e-10, large enough that no loop chosen
+#: by rounding survives it.
+NOISE_DEFAULT = 1e-12
 MAX_HARMONICS = 32
 
 
@@ -62,6 +69,44 @@ def check_range(name: str, value: Any, lo: float, hi: float, *, lo_open: bool = 
     return v
 
 
+def check_int(name: str, value: Any, lo: int, hi: int) -> int:
+    """Return ``value`` as an int in ``[lo, hi]``, or raise ``ValueError`` naming it.
+
+    A float is taken only when it is whole (``2.0``); ``2.5`` is refused rather than
+    truncated, and so are bools and text.
+    """
+    v = check_range(name, value, lo, hi)
+    if v != int(v):
+        raise ValueError(f"{name} = {value!r} must be a whole number in [{lo}, {hi}]")
+    return int(v)
+
+
+def check_reals(label: str, values: Any) -> np.ndarray:
+    """``values`` as a flat float64 array, or ``ValueError`` naming ``label``.
+
+    Text, bools and containers are refused even where numpy would convert them
+    (``np.asarray(["1", "2"], float)`` parses the strings); NaN and infinities too.
+    """
+    if isinstance(values, (str, bytes, Mapping, Set)):
+        raise ValueError(f"{label} must be a sequence of numbers, got {values!r:.60}")
+    arr = np.asarray(values) if isinstance(values, np.ndarray) else None
+    if arr is None:
+        try:
+            items = list(values) if not np.isscalar(values) else [values]
+        except TypeError:
+            raise ValueError(f"{label} must be a sequence of numbers, got {values!r:.60}") from None
+        arr = np.asarray(items, dtype=object).ravel() if items else np.empty(0)
+    if arr.dtype.kind not in "fiu":
+        for v in arr.ravel():
+            if (isinstance(v, (bool, np.bool_)) or not isinstance(v, (numbers.Real, np.floating,
+                                                                      np.integer))):
+                raise ValueError(f"{label} must be numbers, got {v!r:.60} in it")
+    vals = arr.astype(np.float64).ravel()
+    if not np.all(np.isfinite(vals)):
+        raise ValueError(f"{label} must all be finite, got {float(vals[~np.isfinite(vals)][0])!r}")
+    return vals
+
+
 def check_bool(name: str, value: Any) -> bool:
     """Return ``value`` if it is a bool (numpy's included), or raise ``ValueError`` naming it."""
     if isinstance(value, (bool, np.bool_)):
@@ -88,6 +133,11 @@ class RattleParams:
     v_stick : float
         Limit impact velocity: an impact with ``|ẋ − ẏ| < v_stick`` ends the rebounds
         (permanent contact while the reaction keeps its sign). Range [0, 10].
+    noise : float
+        ε, the relative scatter of the restitution coefficient: every rebound uses
+        ``r (1 + ε ξ)`` (capped at 1), ``ξ`` uniform in (−1, 1] from a seeded stream.
+        ``0`` is the strict deterministic model. Range [0, 0.5]; default ``NOISE_DEFAULT``
+        (docs/model.md, "Noise").
     """
 
     lam: float
@@ -96,6 +146,7 @@ class RattleParams:
     amplitudes: tuple[float, ...] = (1.0,)
     phases_deg: tuple[float, ...] = (0.0,)
     v_stick: float = 1e-6
+    noise: float = NOISE_DEFAULT
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -103,6 +154,7 @@ class RattleParams:
         set_(self, "r", check_range("r", self.r, *R_RANGE))
         set_(self, "j", check_range("j", self.j, *J_RANGE, lo_open=True))
         set_(self, "v_stick", check_range("v_stick", self.v_stick, *V_STICK_RANGE))
+        set_(self, "noise", check_range("noise", self.noise, *NOISE_RANGE))
         amps = _as_tuple("amplitudes", self.amplitudes)
         phases = _as_tuple("phases_deg", self.phases_deg)
         if len(amps) == 0:
@@ -139,7 +191,7 @@ class RattleParams:
 
     # ----- editing by name --------------------------------------------------------------
     def get(self, name: str) -> float:
-        """Value of a sweepable parameter: ``lam``, ``r``, ``j``, ``v_stick``, ``hK``, ``phiK``."""
+        """Value of a sweepable parameter: ``lam``, ``r``, ``j``, ``v_stick``, ``noise``, ``hK``, ``phiK``."""
         kind, k = parse_name(name)
         if kind == "h":
             return self.amplitudes[k - 1] if k <= self.n_harmonics else 0.0
@@ -163,10 +215,10 @@ class RattleParams:
     @classmethod
     def paper(cls, lam: float, r: float = 0.65, j: float = 8.0,
               amplitudes: Iterable[float] = (1.0,), phases_deg: Iterable[float] = (0.0,),
-              v_stick: float = 1e-6) -> "RattleParams":
+              v_stick: float = 1e-6, noise: float = NOISE_DEFAULT) -> "RattleParams":
         """Parameters given in the paper's phase convention (:mod:`rattle_core.model.phases`)."""
         return cls(lam=lam, r=r, j=j, amplitudes=tuple(amplitudes),
-                   phases_deg=paper_to_core_phases(phases_deg), v_stick=v_stick)
+                   phases_deg=paper_to_core_phases(phases_deg), v_stick=v_stick, noise=noise)
 
     # ----- canonical form ---------------------------------------------------------------
     def canonical(self) -> dict:
@@ -179,24 +231,39 @@ class RattleParams:
             "lam": float(self.lam).hex(), "r": float(self.r).hex(), "j": float(self.j).hex(),
             "amplitudes": [float(a).hex() for a in amps],
             "phases_deg": [float(p).hex() for p in phases],
-            "v_stick": float(self.v_stick).hex(),
+            "v_stick": float(self.v_stick).hex(), "noise": float(self.noise).hex(),
         }
 
     def to_dict(self) -> dict:
         """Plain JSON-friendly dict (decimal floats), inverse of :meth:`from_dict`."""
         return {"lam": self.lam, "r": self.r, "j": self.j, "amplitudes": list(self.amplitudes),
-                "phases_deg": list(self.phases_deg), "v_stick": self.v_stick}
+                "phases_deg": list(self.phases_deg), "v_stick": self.v_stick,
+                "noise": self.noise}
 
     @classmethod
     def from_dict(cls, d: dict) -> "RattleParams":
+        """Parameters from :meth:`to_dict` (or :meth:`canonical`); ``ValueError`` naming what is
+        missing or unknown."""
+        if not isinstance(d, Mapping):
+            raise ValueError(f"parameters must be a dict, got {type(d).__name__}")
+        known = [f.name for f in dataclasses.fields(cls)]
+        unknown = sorted(str(k) for k in d if k not in known)
+        if unknown:
+            raise ValueError(f"unknown parameter {unknown[0]!r}; allowed: {', '.join(known)}")
+        if "lam" not in d:
+            raise ValueError("lam is missing; the parameters must give at least lam")
+
         def num(v: Any) -> Any:
             if isinstance(v, str) and re.match(r"^[-+]?0x", v.strip()):
                 return float.fromhex(v)
             return v
+
+        def nums(v: Any) -> Any:  # anything but a list is left for the constructor to refuse
+            return tuple(num(a) for a in v) if isinstance(v, (list, tuple)) else v
         return cls(lam=num(d["lam"]), r=num(d.get("r", 0.65)), j=num(d.get("j", 8.0)),
-                   amplitudes=tuple(num(a) for a in d.get("amplitudes", (1.0,))),
-                   phases_deg=tuple(num(p) for p in d.get("phases_deg", (0.0,))),
-                   v_stick=num(d.get("v_stick", 1e-6)))
+                   amplitudes=nums(d.get("amplitudes", (1.0,))),
+                   phases_deg=nums(d.get("phases_deg", (0.0,))),
+                   v_stick=num(d.get("v_stick", 1e-6)), noise=num(d.get("noise", NOISE_DEFAULT)))
 
     def key(self, **settings: Any) -> str:
         """SHA-256 of the canonical parameters plus any settings (used as a cache key)."""
@@ -204,7 +271,8 @@ class RattleParams:
 
 
 def _as_tuple(name: str, seq: Any) -> tuple:
-    if isinstance(seq, (str, bytes)):
+    # a dict's keys or a set's order would silently stand in for the harmonics' values
+    if isinstance(seq, (str, bytes, Mapping, Set)):
         raise ValueError(f"{name} must be a sequence of numbers, got {seq!r}")
     if np.isscalar(seq):
         return (seq,)
@@ -214,14 +282,14 @@ def _as_tuple(name: str, seq: Any) -> tuple:
         raise ValueError(f"{name} must be a sequence of numbers, got {seq!r}") from None
 
 
-_NAME_RE = re.compile(r"^(lam|r|j|v_stick|h(\d+)|phi(\d+))$")
+_NAME_RE = re.compile(r"^(lam|r|j|v_stick|noise|h(\d+)|phi(\d+))$")
 
 
 def parse_name(name: str) -> tuple[str, int]:
     """Split a parameter name into (kind, harmonic order); raises ``ValueError`` if unknown."""
     m = _NAME_RE.match(str(name))
     if not m:
-        raise ValueError(f"unknown parameter name {name!r}; allowed: lam, r, j, v_stick, "
+        raise ValueError(f"unknown parameter name {name!r}; allowed: lam, r, j, v_stick, noise, "
                          f"h2..h{MAX_HARMONICS} (amplitude ratio), phi1..phi{MAX_HARMONICS} (phase, degrees)")
     if m.group(2) is not None:
         k = int(m.group(2))
@@ -262,7 +330,7 @@ def canonical_hash(obj: Any) -> str:
 
 def iter_names(params: RattleParams) -> Iterable[str]:
     """All sweepable names for this parameter set."""
-    yield from ("lam", "r", "j", "v_stick")
+    yield from ("lam", "r", "j", "v_stick", "noise")
     for k in range(2, params.n_harmonics + 1):
         yield f"h{k}"
     for k in range(1, params.n_harmonics + 1):

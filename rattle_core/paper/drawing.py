@@ -11,8 +11,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..analysis.vocabulary import (ACTIVE, FLANK_COLOURS, FLANK_LABELS, LETTERS, REGIME_COLOURS,
-                                   REVERSE)
+from ..analysis.vocabulary import (ACTIVE, CODIM2_MARKERS, CURVE_STYLES, FLANK_COLOURS,
+                                   FLANK_LABELS, LETTERS, MPL_DASH, REGIME_COLOURS, REVERSE)
 
 
 def agg_figure(figsize: tuple[float, float], dpi: int = 110):
@@ -164,5 +164,98 @@ def continuation_png(path: Path | str, results: Sequence[Any], xlabel: str, titl
     ax.set_xlabel(xlabel)
     ax.set_ylabel("dimensionless impulse Ĩ (active > 0, reverse < 0)")
     ax.set_title(f"{title}\nstable solid, unstable dashed", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path)
+
+
+def atlas_png(path: Path | str, curves: Sequence[Any], xlabel: str, ylabel: str,
+              title: str) -> None:
+    """Bifurcation curves of :func:`~rattle_core.analysis.continuation.continue_bifurcation`
+    in the plane of their two parameters (the first across), one line style per kind, with
+    the codimension-two points marked and labelled."""
+    fig = agg_figure((8.0, 6.0), dpi=120)
+    ax = fig.subplots()
+    seen = set()
+    for c in curves:
+        st = CURVE_STYLES[c.kind]
+        pts = c.points
+        label = st.label if c.kind not in seen else None
+        seen.add(c.kind)
+        ax.plot(pts[c.param1], pts[c.param2], MPL_DASH[st.dash], color=st.colour, lw=1.5,
+                label=label)
+        for p in c.codim2:
+            marker, text = CODIM2_MARKERS[p.kind]
+            ax.plot([p.value1], [p.value2], marker, color="k", ms=6, mfc="none")
+            ax.annotate(text, (p.value1, p.value2), fontsize=7, xytext=(4, 4),
+                        textcoords="offset points")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=9)
+    if seen:
+        ax.legend(fontsize=8, loc="best")
+    fig.tight_layout()
+    fig.savefig(path)
+
+
+def orders_png(path: Path | str, order_map: Any, title: str) -> None:
+    """An order map: each order's angular-acceleration amplitude (left) and phase (right)
+    against engine speed."""
+    fig = agg_figure((10.0, 4.5), dpi=110)
+    ax, axp = fig.subplots(1, 2)
+    for j, k in enumerate(order_map.orders):
+        ax.plot(order_map.rpm, order_map.accel_rad_s2[:, j], ".-", label=f"order {k:g}")
+        axp.plot(order_map.rpm, order_map.phase_deg[:, j], ".-", label=f"order {k:g}")
+    ax.set_xlabel("engine speed [rpm]")
+    ax.set_ylabel("angular acceleration amplitude [rad/s²]")
+    ax.legend(fontsize=8, frameon=False)
+    axp.set_xlabel("engine speed [rpm]")
+    axp.set_ylabel("phase φ_k of θ_k cos(kψ − φ_k) [deg]")
+    axp.set_ylim(-180, 180)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path)
+
+
+def verdict_png(path: Path | str, result: Any, title: str) -> None:
+    """A gearbox verdict: each gear's regime against engine speed (a strip per gear, its onset
+    marked), the rattle intensity and the loudness of each gear and of the whole gearbox."""
+    from matplotlib.colors import ListedColormap
+    from matplotlib.patches import Patch
+    names = [g.name for g in result.gearbox.gears]
+    fig = agg_figure((10.0, 8.0), dpi=110)
+    ax_r, ax_i, ax_l = fig.subplots(3, 1, sharex=True,
+                                    gridspec_kw={"height_ratios": [max(1, len(names)) * 0.35, 1, 1]})
+    letters = list(LETTERS)
+    rpm = np.asarray(result.rpm)
+    edges = np.concatenate([[rpm[0]], 0.5 * (rpm[1:] + rpm[:-1]), [rpm[-1]]]) if rpm.size > 1 \
+        else np.array([rpm[0] - 1, rpm[0] + 1])
+    codes = np.full((len(names), rpm.size), len(letters) - 1)
+    for i, name in enumerate(names):
+        rows = result.gear(name)
+        idx = np.searchsorted(rpm, rows["rpm"].to_numpy())
+        codes[i, idx] = [letters.index(g) if g in letters else len(letters) - 1
+                         for g in rows["regime"]]
+        ax_i.plot(rows["rpm"], rows["intensity"], ".-", label=name)
+        ax_l.plot(rows["rpm"], rows["loudness_sone"], ".-", label=name)
+        onset = rows["onset_rpm"].iloc[0] if len(rows) else np.nan
+        if np.isfinite(onset):
+            ax_r.plot([onset], [i + 0.5], "k|", ms=14, mew=2)
+    ax_r.pcolormesh(edges, np.arange(len(names) + 1), codes,
+                    cmap=ListedColormap([REGIME_COLOURS[g] for g in letters]),
+                    vmin=-0.5, vmax=len(letters) - 0.5, shading="flat")
+    ax_r.set_yticks(np.arange(len(names)) + 0.5, names, fontsize=8)
+    present = sorted({letters[c] for c in codes.ravel()}, key=letters.index)
+    ax_r.legend(handles=[Patch(color=REGIME_COLOURS[g], label=g) for g in present],
+                loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=len(present), fontsize=7,
+                frameon=False)
+    box = result.gear("gearbox")
+    ax_i.plot(box["rpm"], box["intensity"], "k-", lw=2, label="gearbox")
+    ax_l.plot(box["rpm"], box["loudness_sone"], "k-", lw=2, label="gearbox")
+    ax_i.set_yscale("symlog", linthresh=1e-5)
+    ax_i.set_ylabel("intensity Σ I²/s [N²·s]")
+    ax_l.set_ylabel("loudness N5 [sone]")
+    ax_l.set_xlabel("engine speed [rpm]")
+    ax_l.legend(fontsize=7, frameon=False, ncol=3)
+    fig.suptitle(title + "\nregime per gear (onset marked |)", fontsize=9)
     fig.tight_layout()
     fig.savefig(path)

@@ -60,7 +60,7 @@ def short_label(c) -> str:
     if c.stick_fraction > 0:
         line2 += f", sticking {100 * c.stick_fraction:.2g}%"
     if c.sticking == "chaos-through-sticking":
-        line2 += ", chaos through sticking" + (" (vanishing noise)" if c.noisy else "")
+        line2 += ", chaos through sticking" + (" (noisy model)" if c.noisy else "")
     # with sticking in every period the exponent says nothing about the flight dynamics
     if not math.isnan(c.lyapunov) and c.regime not in ("A", "B"):
         line2 += f", λ = {c.lyapunov:.3g}"

@@ -27,7 +27,7 @@ import numpy as np
 from numba import njit
 
 from .events import _leave_step, _root_free, _safe_step
-from .noise import KICK, _seed, _uniform
+from .noise import _uniform
 from ..model.excitation import TWO_PI, _bounds, _y_derivs
 
 CONTACT_TOL = 1e-13
@@ -193,7 +193,7 @@ def _later_or_equal(n, tau, n_ref, tau_ref):
 
 @njit(cache=True, nogil=True)
 def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from, theta,
-               max_imp_per_period, tangent, noise,
+               max_imp_per_period, tangent, eps, seed,
                imp_t, imp_tau, imp_I, imp_w, imp_flank,
                seg_t, seg_kind, seg_x, seg_v,
                str_x, str_v):
@@ -204,8 +204,10 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
     none).  Returns ``(status, n_imp, n_seg, n_str, n, tau, x, v, mode, lyap_sum, lyap_time,
     stick_time, n_stick, rounding, loop_amp, kicks)``; lyap_sum to n_stick, ``rounding`` (a
     capture decided by rounding) and ``loop_amp`` (the largest release-to-capture
-    amplification, natural log) refer to the recording window; ``kicks`` counts the release
-    kicks of the whole run (``noise`` on).
+    amplification, natural log) refer to the recording window; ``kicks`` counts the rebounds
+    of the whole run whose restitution was scattered (``eps > 0``).  ``eps`` is the relative
+    scatter of the restitution coefficient, drawn uniformly in ±eps at every rebound from the
+    stream ``seed`` (docs/model.md, "Noise").
     """
     cphi, sphi, mb, inv_lam, m2, m3, m4, v_eff = _setup(lam, h, phi, v_stick)
 
@@ -259,11 +261,7 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
     loop_max = -np.inf
     rounding = False
     rounding_rec = False
-    kick_due = False
     kicks = 0
-    seed = np.uint64(0)
-    if noise:
-        seed = _seed(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0)
 
     # a start on a wall, at rest on it or moving into it, is a contact at t0
     y0, y1, y2, y3, y4 = _y_derivs(tau, h, cphi, sphi)
@@ -306,16 +304,17 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
                 ew = ex_dv + q
                 ex_a2 = et * et + ew * ew
                 ex_a2_log = ex_log
-                vplus = y1 - r * w
-                if kick_due and r > 0.0:
-                    # the vanishing-noise limit: a seeded relative kick of the rebound, once per
-                    # excursion after a capture decided by rounding
+                rk = r
+                if eps > 0.0 and r > 0.0:
+                    # the restitution of this rebound, r (1 + eps ξ), kept physical (≤ 1)
                     u = _uniform(seed, kicks)
-                    vplus = y1 - r * w * (1.0 + KICK * (2.0 * u - 1.0))
+                    rk = r * (1.0 + eps * (2.0 * u - 1.0))
+                    if rk > 1.0:
+                        rk = 1.0
                     kicks += 1
-                    kick_due = False
-                ex_dv = -r * ex_dv - (1.0 + r) * q
-                ex_dx = -r * ex_dx
+                vplus = y1 - rk * w
+                ex_dv = -rk * ex_dv - (1.0 + rk) * q
+                ex_dx = -rk * ex_dx
                 if recording:
                     if n_imp >= cap_imp:
                         status = OVERFLOW_IMPACTS
@@ -334,8 +333,8 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
                     status = RUNAWAY
                     break
                 if tangent:
-                    ddv = -r * dv - (1.0 + r) * (inv_lam + y2) / w * dx
-                    dx = -r * dx
+                    ddv = -rk * dv - (1.0 + rk) * (inv_lam + y2) / w * dx
+                    dx = -rk * dx
                     dv = ddv
                 v = vplus
                 zero_rel = r == 0.0
@@ -483,7 +482,6 @@ def _integrate(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, n_periods, rec_from
                 ex_dv = 1.0
                 ex_log = 0.0
                 ex_a2 = 0.0
-                kick_due = noise and rounding
                 if tangent:
                     # the release time depends on the phase only, so the perturbation stays
                     # collapsed; a fresh unit vector restarts the measurement

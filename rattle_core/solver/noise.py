@@ -1,18 +1,18 @@
-"""The release kicks of the vanishing-noise limit: their size, seed and random stream.
+"""The model's noise stream: its seed and its random numbers.
 
-After a capture decided by rounding, the first rebound after each release gets a relative kick
-of at most ``KICK`` (docs/model.md, "Sticking erases the past").  The kicks are reproducible: a
-counter-based generator (SplitMix64) seeded from the inputs that decide the motion gives the
-k-th kick from ``(seed, k)`` alone.
+The restitution coefficient of every rebound is scattered by a relative ``ε ξ``, ``ξ`` uniform
+in (−1, 1] (``RattleParams.noise``; docs/model.md, "Noise").  The scatter is reproducible: a
+counter-based generator (SplitMix64) gives the k-th number from ``(seed, k)`` alone, and the
+seed either derives from the inputs that decide the motion or is chosen by the caller
+(:func:`user_seed`).
 """
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
 
-#: Largest relative change of a kicked rebound's velocity (``ẋ⁺ = ẏ − r w (1 + KICK ξ)``,
-#: ``ξ`` uniform in (−1, 1]).
-KICK = 1e-12
+#: Largest seed :func:`user_seed` takes (seeds are unsigned 64-bit numbers).
+MAX_SEED = 2**63 - 1
 
 
 @njit(cache=True, nogil=True)
@@ -25,13 +25,14 @@ def _splitmix(z):
 
 
 @njit(cache=True, nogil=True)
-def _seed(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0):
-    """Seed of the release kicks, from the inputs that decide the motion.
+def _seed(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0, eps):
+    """Default seed of the noise stream, from the inputs that decide the motion.
 
     Harmonics with ``h_k = 0`` are skipped, so padding with empty harmonics (as sweeps do) keeps
     the seed; the run length is left out, so a longer run extends a shorter one.
     """
-    vals = np.empty(8 + 3 * h.shape[0])
+    vals = np.empty(9 + 3 * h.shape[0])
+    vals[8] = eps
     vals[0] = lam
     vals[1] = r
     vals[2] = j
@@ -40,7 +41,7 @@ def _seed(lam, r, j, h, phi, v_stick, n0, tau0, x0, v0):
     vals[5] = tau0
     vals[6] = x0
     vals[7] = v0
-    m = 8
+    m = 9
     for i in range(h.shape[0]):
         if h[i] != 0.0:
             vals[m] = i + 1.0
@@ -59,3 +60,8 @@ def _uniform(seed, k):
     """The k-th number of the stream ``seed``, uniform in (0, 1]."""
     z = _splitmix(seed + np.uint64(k) * np.uint64(0xD1B54A32D192ED03))
     return ((z >> np.uint64(11)) + np.uint64(1)) * (1.0 / 9007199254740992.0)
+
+
+def user_seed(seed: int) -> np.uint64:
+    """The stream of a caller's seed (an int in [0, MAX_SEED]), distinct from derived seeds."""
+    return np.uint64(_splitmix(np.uint64(seed) ^ np.uint64(0x5851F42D4C957F2D)))

@@ -12,12 +12,17 @@ import math
 import numpy as np
 
 from . import kernel as solver
+from .noise import MAX_SEED, _seed, user_seed
 from ..model.excitation import TWO_PI, excitation
-from ..model.params import RattleParams, check_bool, check_range
+from ..model.params import RattleParams, check_bool, check_int, check_range
 
-SOLVER_VERSION = "1.2.0"
+SOLVER_VERSION = "1.3.0"
 #: Largest number of forcing periods (transient + recorded) one call may run.
 MAX_PERIODS = 2_000_000
+#: Largest |t0|.  The kernel runs on (period index, phase), but a trajectory reports absolute
+#: times, and beyond this a double's spacing (1.2e-10 at 1e6) times the walls' speed would
+#: move a sampled gear visibly through a tooth; later periods are reached with ``transient``.
+MAX_T0 = 1.0e6
 
 
 class SolverError(RuntimeError):
@@ -44,14 +49,15 @@ class Trajectory:
         Segments: start time, kind (0 flight, +1 stuck active, −1 stuck reverse), state at start.
     rounding_decided : bool
         Some capture in the recorded window ended an excursion that amplified perturbations
-        beyond ``1e10`` (``solver.LOG_ROUNDING``): double precision does not decide which loop
-        the exact model follows (docs/model.md, "Sticking erases the past").
+        beyond ``1e10`` (``solver.LOG_ROUNDING``): double precision alone does not decide which
+        loop the exact model follows (docs/model.md, "Sticking erases the past"); with
+        ``params.noise > 0`` the noise decides it, and the statistics depend on its level.
     loop_amplification : float
         log10 of the largest release-to-capture amplification in the recorded window (``-inf``
         when no capture follows an impact).
     noise_kicks : int
-        Release kicks applied in the whole run (only with ``noise=True``, after a capture
-        decided by rounding); 0 means the run is the exact, unperturbed model.
+        Rebounds in the whole run whose restitution was scattered (``params.noise > 0``); 0
+        means the run is the exact, unperturbed model.
     """
 
     params: RattleParams
@@ -147,18 +153,14 @@ class Trajectory:
         return self.strobe_x - y, self.strobe_v - yd
 
 
-def _check_int(name: str, value, lo: int, hi: int) -> int:
-    v = check_range(name, value, lo, hi)
-    if v != int(v):
-        raise ValueError(f"{name} = {value!r} must be a whole number in [{lo}, {hi}]")
-    return int(v)
+_check_int = check_int  # the name the batch layer imports
 
 
 def simulate(params: RattleParams, periods: int = 500, x0: float | None = None, v0: float = 0.0,
              strobe_phase: float = 0.0, t0: float = 0.0, transient: int = 0,
              lyapunov: bool = False, record_segments: bool = True,
              max_impacts_per_period: int = solver.MAX_IMPACTS_PER_PERIOD,
-             noise: bool = True) -> Trajectory:
+             seed: int | None = None) -> Trajectory:
     """Simulate the idle gear exactly for ``transient + periods`` forcing periods.
 
     Parameters
@@ -172,7 +174,7 @@ def simulate(params: RattleParams, periods: int = 500, x0: float | None = None, 
     strobe_phase : float
         θ of the stroboscopic section ``t = 2π n + θ`` (radians, reduced mod 2π).
     t0 : float
-        Start time.
+        Start time, in [-1e6, 1e6] (:data:`MAX_T0`; start later with ``transient``).
     transient : int
         Periods run first and not recorded.
     lyapunov : bool
@@ -181,13 +183,11 @@ def simulate(params: RattleParams, periods: int = 500, x0: float | None = None, 
         Keep the segments needed by :meth:`Trajectory.sample`.
     max_impacts_per_period : int
         Runaway limit: more impacts than this within one period raises :class:`SolverError`.
-    noise : bool
-        ``True`` (default): the attractor under vanishing noise.  Once a capture into a stick
-        phase was decided by rounding, the first rebound after each later release gets a
-        seeded relative kick of at most 1e-12, so the run samples the chaotic set instead of a
-        loop chosen by rounding; the seed derives from the inputs, so results are reproducible.
-        Runs without such a capture (robust stick orbits included) are untouched, bit for
-        bit.  ``False``: the unperturbed model, strictly deterministic; then
+    seed : int or None
+        The noise stream (``params.noise``, the restitution's relative scatter at every
+        rebound), an int in [0, 2**63 − 1].  ``None`` (default) derives it from the inputs, so
+        a run is reproducible; different seeds give independent runs.  Without noise
+        (``params.noise == 0``) the model is strictly deterministic and
         :attr:`Trajectory.rounding_decided` says when its loop is not resolvable.
     """
     if not isinstance(params, RattleParams):
@@ -198,10 +198,14 @@ def simulate(params: RattleParams, periods: int = 500, x0: float | None = None, 
         raise ValueError(f"periods + transient = {periods + transient} is outside the allowed range "
                          f"[1, {MAX_PERIODS}]")
     max_impacts_per_period = _check_int("max_impacts_per_period", max_impacts_per_period, 1, 10**7)
-    noise = check_bool("noise", noise)
+    if seed is not None:
+        if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
+            raise ValueError(f"seed must be a whole number in [0, {MAX_SEED}] or None, got {seed!r}")
+        if not 0 <= int(seed) <= MAX_SEED:
+            raise ValueError(f"seed = {seed!r} is outside the allowed range [0, {MAX_SEED}]")
     lyapunov = check_bool("lyapunov", lyapunov)
     record_segments = check_bool("record_segments", record_segments)
-    t0 = check_range("t0", t0, -1e9, 1e9)
+    t0 = check_range("t0", t0, -MAX_T0, MAX_T0)
     theta = check_range("strobe_phase", strobe_phase, -1e6, 1e6) % TWO_PI
     n0 = math.floor(t0 / TWO_PI)
     tau0 = t0 - n0 * TWO_PI
@@ -214,6 +218,10 @@ def simulate(params: RattleParams, periods: int = 500, x0: float | None = None, 
     x0 = min(max(x0, y_t0), y_t0 + params.j)
     v0 = check_range("v0", v0, -1e6, 1e6)
 
+    eps = params.noise
+    stream = np.uint64(user_seed(int(seed)) if seed is not None else
+                       _seed(params.lam, params.r, params.j, params.h, params.phi,
+                             params.v_stick, n0, tau0, x0, v0, eps))
     cap_imp = 4 * periods + 64
     cap_seg = (6 * (periods + transient) + 64) if record_segments else 0
     h = params.h
@@ -232,7 +240,7 @@ def simulate(params: RattleParams, periods: int = 500, x0: float | None = None, 
         str_v = np.empty(periods)
         out = solver._integrate(params.lam, params.r, params.j, h, phi, params.v_stick,
                                 n0, tau0, x0, v0, periods + transient, transient, theta,
-                                max_impacts_per_period, lyapunov, noise,
+                                max_impacts_per_period, lyapunov, eps, stream,
                                 imp_t, imp_tau, imp_I, imp_w, imp_flank,
                                 seg_t, seg_kind, seg_x, seg_v, str_x, str_v)
         status = out[0]
@@ -267,7 +275,8 @@ def simulate(params: RattleParams, periods: int = 500, x0: float | None = None, 
         lyapunov_sum=float(lsum), lyapunov_time=float(ltime), stick_time=float(stime),
         n_stick_phases=int(nstick),
         settings={"periods": periods, "transient": transient, "x0": x0, "v0": v0, "t0": t0,
-                  "lyapunov": bool(lyapunov), "noise": noise, "solver_version": SOLVER_VERSION},
+                  "lyapunov": bool(lyapunov), "noise": eps, "seed": seed,
+                  "solver_version": SOLVER_VERSION},
         rounding_decided=bool(rounding), loop_amplification=float(loop_amp) / math.log(10.0),
         noise_kicks=int(kicks),
     )

@@ -7,10 +7,12 @@ Key
     :data:`~rattle_core.solver.trajectory.SOLVER_VERSION`.  A changed solver or schema therefore
     never serves a stale result.
 Match
-    An entry is served only when its stored request equals the one asked, field by field, and
-    its arrays hold the values asked for; the file name (the key's first 32 hex digits) only
-    finds it.  An entry that is unreadable, truncated, foreign or mismatched is recomputed and
-    overwritten, never an error.  Something else standing at an entry's path (a directory, a
+    An entry is served only when its declared array sizes pass
+    :func:`~rattle_core.store.files.read_checked` before it is loaded, its digest matches its
+    content, it holds every field its kind requires, its stored request equals the one asked,
+    field by field, and its arrays hold the values asked for; the file name (the key's first 32
+    hex digits) only finds it.  An entry that is unreadable, truncated, forged, foreign or
+    mismatched is a miss: recomputed and overwritten, never an error.  Something else standing at an entry's path (a directory, a
     socket) is left alone: the result is computed and returned without being stored.
 Writes
     Compressed ``.npz`` (:mod:`rattle_core.store.files`), atomic; a read-only or full disk costs
@@ -19,6 +21,7 @@ Size
     At most :func:`size_limit` bytes, ``RATTLE_CACHE_SIZE_MB`` megabytes (default
     :data:`DEFAULT_SIZE_MB`, 1024).  After each write the least recently used entries (a hit
     counts as a use) are deleted until the cache fits; the entry just written is kept.
+    Temporary files of writers that died (their pid is gone, or a day passed) are deleted too.
 Location
     ``$RATTLE_CACHE_DIR``, else ``$XDG_CACHE_HOME/rattle-explorer``, else
     ``~/.cache/rattle-explorer``.
@@ -29,6 +32,7 @@ import dataclasses
 import math
 import os
 import stat
+import time
 from pathlib import Path
 from typing import Any, Callable
 
@@ -38,15 +42,23 @@ from ..batch.maps import MapResult, basin_map, regime_map
 from ..batch.sweep import SCHEMA_VERSION, SweepResult, sweep, validate_sweep_args
 from ..model.params import RattleParams, _canon, canonical_hash
 from ..solver.trajectory import SOLVER_VERSION
-from .files import load_map, load_result, save_map, save_result
+from .files import (_SUMMARY_TYPES, TMP_PREFIX, load_map, load_result, read_checked,
+                    save_map, save_result)
 
 #: Default size limit of the cache, in megabytes (``RATTLE_CACHE_SIZE_MB`` overrides it).
 DEFAULT_SIZE_MB = 1024
 SIZE_MB_RANGE = (0.0, 1.0e7)
 #: File-name prefixes of cache entries; nothing else in the directory is ever deleted.
-PREFIXES = ("sweep", "map", "cont")
+PREFIXES = ("sweep", "map", "cont", "gearbox")
 _SWEEP_SETTINGS = ("transient", "record", "mode", "x0", "v0")
 _MAP_SETTINGS = ("transient", "record", "x0", "v0", "decimals")
+#: What every sweep and map entry must hold (basins also ``f_attractor``).
+SWEEP_FIELDS = ("meta", "values", "t_value", "t_impulse", "t_flank", "t_phase",
+                *(f"s_{c}" for c in _SUMMARY_TYPES))
+MAP_FIELDS = ("meta", "x_values", "y_values", "f_regime", "f_period", "f_lyapunov",
+              "f_active_per_period", "f_reverse_per_period", "f_stick_fraction", "f_intensity")
+#: A temporary file this old is a dead writer's even when its pid was reused.
+TMP_MAX_AGE = 86_400.0
 
 
 def cache_dir() -> Path:
@@ -75,13 +87,16 @@ def size_limit() -> int:
 
 # ----- requests and keys --------------------------------------------------------------------
 
-def sweep_request(base: RattleParams, name: str, values, settings: dict) -> dict:
+def sweep_request(base: RattleParams, name: str, values, settings: dict,
+                  columns: dict | None = None) -> dict:
     """What a sweep's result depends on; its :func:`canonical_hash` is the cache key."""
     keyed = {k: settings[k] for k in _SWEEP_SETTINGS}
-    keyed["noise"] = bool(settings.get("noise", True))
-    return {"kind": "sweep", "params": base.canonical(), "name": name,
-            "values": np.asarray(values, dtype=np.float64), "settings": keyed,
-            "schema": SCHEMA_VERSION, "solver": SOLVER_VERSION}
+    request = {"kind": "sweep", "params": base.canonical(), "name": name,
+               "values": np.asarray(values, dtype=np.float64), "settings": keyed,
+               "schema": SCHEMA_VERSION, "solver": SOLVER_VERSION}
+    if columns is not None:  # absent otherwise, so the keys of plain sweeps stay as they were
+        request["columns"] = {k: np.asarray(v, dtype=np.float64) for k, v in columns.items()}
+    return request
 
 
 def sweep_key(base: RattleParams, name: str, values, settings: dict) -> str:
@@ -102,10 +117,13 @@ def map_request(kind: str, params: RattleParams, x_name: str, x_values, y_name: 
 # ----- the one wrapper ----------------------------------------------------------------------
 
 def cached(prefix: str, request: dict, compute: Callable[[], Any],
-           load: Callable[[Path], tuple[Any, dict]], save: Callable[..., None],
-           holds: Callable[[Any], bool], directory: Path | str | None = None) -> tuple[Any, bool]:
+           load: Callable[[Any], tuple[Any, dict]], save: Callable[..., None],
+           holds: Callable[[Any], bool], directory: Path | str | None = None,
+           required: tuple[str, ...] = ("meta",), limit: int | None = None) -> tuple[Any, bool]:
     """Serve ``request`` from the cache, or ``compute()`` and store it; ``(result, from_cache)``.
 
+    ``load`` reads an entry from a file object (the bytes that passed
+    :func:`~rattle_core.store.files.read_checked` with ``required`` and ``limit``);
     ``holds(result)`` checks that a loaded entry's arrays are the ones asked for; the stored
     request must also equal ``request``.  See the module docstring for every other rule.
     """
@@ -116,12 +134,12 @@ def cached(prefix: str, request: dict, compute: Callable[[], Any],
     storable = True
     if _is_file(path):
         try:
-            result, meta = load(path)
+            result, meta = load(read_checked(path, required, limit))
             if meta.get("key") == key and meta.get("request") == wanted and holds(result):
                 _touch(path)
                 return result, True
         except Exception:
-            pass  # unreadable or foreign entry: recompute and overwrite it below
+            pass  # unreadable, forged or foreign entry: recompute and overwrite it below
     elif os.path.lexists(path):
         storable = False
     result = compute()
@@ -138,24 +156,26 @@ def cached(prefix: str, request: dict, compute: Callable[[], Any],
 def cached_sweep(base: RattleParams, name: str, values, transient: int = 500, record: int = 200,
                  mode: str = "fresh", x0: float | None = None, v0: float = 0.0, progress=None,
                  cancel=None, chunk_size: int | None = None, executor: Any = None,
-                 directory: Path | str | None = None, noise: bool = True) -> SweepResult:
+                 directory: Path | str | None = None, columns: dict | None = None) -> SweepResult:
     """:func:`~rattle_core.batch.sweep.sweep`, served from the disk cache when the same request
     ran before (``result.from_cache``).  A cancelled sweep is returned but not stored."""
-    vals, transient, record = validate_sweep_args(name, values, transient, record, mode)
+    vals, transient, record = validate_sweep_args(name, values, transient, record, mode, columns)
     settings = {"transient": transient, "record": record, "mode": mode,
-                "x0": None if x0 is None else float(x0), "v0": float(v0), "noise": noise}
+                "x0": None if x0 is None else float(x0), "v0": float(v0)}
 
     def compute() -> SweepResult:
         return sweep(base, name, vals, transient=transient, record=record, mode=mode, x0=x0,
                      v0=v0, progress=progress, cancel=cancel, chunk_size=chunk_size,
-                     executor=executor, noise=noise)
+                     executor=executor, columns=columns)
 
     def holds(res: SweepResult) -> bool:
         return (res.name == name and res.params.canonical() == base.canonical()
-                and np.array_equal(res.values, vals))
+                and np.array_equal(res.values, vals) and not res.cancelled
+                and np.array_equal(res.summary["value"].to_numpy(dtype=np.float64), vals)
+                and bool(np.isin(res.table["value"].to_numpy(dtype=np.float64), vals).all()))
 
-    result, hit = cached("sweep", sweep_request(base, name, vals, settings), compute,
-                         lambda p: load_result(p), save_result, holds, directory)
+    result, hit = cached("sweep", sweep_request(base, name, vals, settings, columns), compute,
+                         load_result, save_result, holds, directory, SWEEP_FIELDS)
     if hit:
         if progress is not None:
             progress(len(vals), len(vals))
@@ -182,10 +202,16 @@ def cached_map(kind: str, params: RattleParams, x_name: str, x_values, y_name: s
     def holds(res: MapResult) -> bool:
         return (res.kind == kind and (res.x_name, res.y_name) == (x_name, y_name)
                 and res.params.canonical() == params.canonical()
-                and np.array_equal(res.x_values, xv) and np.array_equal(res.y_values, yv))
+                and np.array_equal(res.x_values, xv) and np.array_equal(res.y_values, yv)
+                and all(v.shape == (yv.size, xv.size) for v in res.fields.values()))
 
     request = map_request(kind, params, x_name, xv, y_name, yv, kwargs)
-    result, hit = cached("map", request, compute, load_map, save_map, holds, directory)
+    required = MAP_FIELDS + (("f_attractor",) if kind == "basin" else ())
+    # a map's size follows from its grid: 8 fields of at most 8 bytes a point, axes, the meta
+    # (a basin names each attractor, at most one per point)
+    limit = max(2 * (xv.size * yv.size * 64 + 8 * (xv.size + yv.size)) + 1_000_000, 64_000_000)
+    result, hit = cached("map", request, compute, load_map, save_map, holds, directory,
+                         required, limit)
     return dataclasses.replace(result, from_cache=True) if hit else result
 
 
@@ -193,7 +219,8 @@ def cached_map(kind: str, params: RattleParams, x_name: str, x_values, y_name: s
 
 @dataclasses.dataclass(frozen=True)
 class Entry:
-    """One cache file: its path, kind (``sweep``, ``map`` or ``cont``, a continued branch), size in bytes and last use."""
+    """One cache file: its path, kind (``sweep``, ``map``, ``cont``, a continued branch, or
+    ``gearbox``, a verdict), size in bytes and last use."""
 
     path: Path
     kind: str
@@ -235,6 +262,7 @@ def evict(directory: Path | str | None = None, limit: int | None = None,
     """Delete the least recently used entries until the cache fits ``limit`` bytes (default
     :func:`size_limit`); entries in ``keep`` stay.  Returns the paths deleted."""
     limit = size_limit() if limit is None else int(limit)
+    evict_stale_temporaries(directory)
     found = entries(directory)
     total = sum(e.size for e in found)
     kept = {Path(k) for k in keep}
@@ -250,6 +278,39 @@ def evict(directory: Path | str | None = None, limit: int | None = None,
             continue
         total -= e.size
         gone.append(e.path)
+    return gone
+
+
+def _writer_gone(path: Path) -> bool:
+    """True for a temporary file whose writer died: its pid is gone, or it is a day old."""
+    try:
+        if time.time() - os.lstat(path).st_mtime > TMP_MAX_AGE:
+            return True
+        pid = int(path.name[len(TMP_PREFIX):].split("-", 1)[0])
+    except (OSError, ValueError):
+        return False  # an unnamed writer is only judged by age
+    if pid == os.getpid():
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    except OSError:
+        return False  # alive, someone else's
+    return False
+
+
+def evict_stale_temporaries(directory: Path | str | None = None) -> list[Path]:
+    """Delete the temporary files that writers killed mid-write left; returns their paths."""
+    folder = Path(directory) if directory is not None else cache_dir()
+    gone = []
+    for p in folder.glob(f"{TMP_PREFIX}*.npz"):
+        if _is_file(p) and _writer_gone(p):
+            try:
+                p.unlink()
+            except OSError:
+                continue
+            gone.append(p)
     return gone
 
 

@@ -1,15 +1,23 @@
 """The ``.npz`` files sweeps and maps are kept in: the disk cache, the shipped diagrams, ``--out``.
 
-A file holds the result's arrays and a JSON ``meta`` record (parameters, settings, schema and
-solver versions, and for cache entries the content key and the request it answers).  Files are
-written to a temporary file beside the target and moved into place with ``os.replace``, so a
-reader never sees half a file, and read with ``allow_pickle=False``.
+A file holds the result's arrays, a JSON ``meta`` record (parameters, settings, schema and
+solver versions, and for cache entries the content key and the request it answers) and a
+``digest``: the SHA-256 of every other array's name, type, shape and bytes.  Files are
+written to a temporary file beside the target (``.tmp-<pid>-*``, so that one left by a killed
+writer can be told from one being written) and moved into place with ``os.replace``, so a
+reader never sees half a file, and read with ``allow_pickle=False``.  :func:`read_checked`
+reads a file only after its declared array sizes passed a limit, and returns it only when
+its digest matches.
 """
 from __future__ import annotations
 
+import hashlib
+import io
 import json
+import math
 import os
 import tempfile
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -27,9 +35,38 @@ _SUMMARY_TYPES = {"value": np.float64, "regime": "U8", "period": np.int32, "n_ac
                   "sticking": "U22", "loop_amplification": np.float64, "status": np.int8}
 
 
+#: The temporary files of :func:`atomic_savez` start with this, then the writer's pid and "-".
+TMP_PREFIX = ".tmp-"
+#: Declared (uncompressed) bytes a file may hold whatever its size: 64 MB ...
+DECLARED_FLOOR = 64_000_000
+#: ... or this many times its size on disk (results compress 2 to 20 times; a forged header
+#: or a deflate bomb claims up to a thousand).
+DECLARED_RATIO = 100
+
+
+class CorruptFile(ValueError):
+    """A file that is not what its writer wrote: sizes out of bounds, a missing or wrong digest."""
+
+
+def content_digest(arrays: dict) -> str:
+    """SHA-256 of the arrays' names, dtypes, shapes and bytes (the ``digest`` excluded)."""
+    h = hashlib.sha256()
+    for name in sorted(arrays):
+        if name == "digest":
+            continue
+        a = np.ascontiguousarray(arrays[name])
+        h.update(json.dumps([name, a.dtype.str, list(a.shape)]).encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
 def atomic_savez(path: Path, arrays: dict) -> None:
-    """Write a compressed npz to a temporary file beside ``path``, then move it into place."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".npz")
+    """Write a compressed npz with its :func:`content_digest` to a temporary file beside
+    ``path``, then move it into place."""
+    arrays = {k: np.asarray(v) for k, v in arrays.items() if k != "digest"}
+    arrays["digest"] = np.array(content_digest(arrays))
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f"{TMP_PREFIX}{os.getpid()}-",
+                               suffix=".npz")
     try:
         with os.fdopen(fd, "wb") as f:
             np.savez_compressed(f, **arrays)
@@ -38,6 +75,63 @@ def atomic_savez(path: Path, arrays: dict) -> None:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+def _declared(data: bytes, limit: int) -> None:
+    """Refuse an npz whose members declare more than ``limit`` bytes, or other sizes than
+    their headers say, reading only the headers."""
+    total = 0
+    with zipfile.ZipFile(io.BytesIO(data)) as zf:
+        for info in zf.infolist():
+            total += info.file_size
+            if total > limit:
+                raise CorruptFile(f"{info.filename} takes the file's declared size to {total} "
+                                  f"bytes, over the limit of {limit}")
+            with zf.open(info) as f:
+                version = np.lib.format.read_magic(f)
+                readers = {(1, 0): np.lib.format.read_array_header_1_0,
+                           (2, 0): np.lib.format.read_array_header_2_0}
+                if version not in readers:
+                    raise CorruptFile(f"{info.filename}: npy format {version} is not written here")
+                shape, _, dtype = readers[version](f)
+                if dtype.hasobject:
+                    raise CorruptFile(f"{info.filename} holds Python objects")
+                body = math.prod(shape) * dtype.itemsize
+                if f.tell() + body != info.file_size:
+                    raise CorruptFile(f"{info.filename} declares {body} bytes of data in a "
+                                      f"member of {info.file_size}")
+
+
+def read_checked(path: Path | str, required: tuple[str, ...] = (),
+                 limit: int | None = None) -> io.BytesIO:
+    """The bytes of an npz written by :func:`atomic_savez`, checked, for ``np.load``.
+
+    Before any array is loaded, the declared sizes must agree with the headers and stay within
+    ``limit`` bytes (default: :data:`DECLARED_FLOOR`, or :data:`DECLARED_RATIO` times the
+    file's size if more).  Then the ``digest`` must match the content and every name in
+    ``required`` must be present.  Raises :class:`CorruptFile` otherwise.
+    """
+    size = os.stat(path).st_size
+    if limit is None:
+        limit = max(DECLARED_FLOOR, DECLARED_RATIO * size)
+    if size > limit:
+        raise CorruptFile(f"{size} bytes on disk, over the limit of {limit}")
+    with open(path, "rb") as f:
+        data = f.read(limit + 1)
+    try:
+        _declared(data, limit)
+        with np.load(io.BytesIO(data), allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+    except CorruptFile:
+        raise
+    except Exception as exc:  # not a zip, not npy members, truncated
+        raise CorruptFile(f"unreadable ({type(exc).__name__}: {exc})") from None
+    missing = [k for k in required if k not in arrays]
+    if missing:
+        raise CorruptFile(f"{', '.join(missing)} missing")
+    if "digest" not in arrays or str(arrays["digest"]) != content_digest(arrays):
+        raise CorruptFile("the digest does not match the content")
+    return io.BytesIO(data)
 
 
 def _meta(result: Any, key: str | None, request: Any) -> dict:

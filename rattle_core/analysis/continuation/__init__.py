@@ -86,10 +86,27 @@ end of sticking the restart is a simulation from the old orbit, just beyond the 
 * ``arclength``: the pseudo-arclength loop, and natural steps for orbits that stick.
 * ``switching``: starting a branch, and restarting past a bifurcation.
 * ``driver``: :func:`continue_orbit`, which checks the request and assembles the result.
+
+**Two parameters.**  A located bifurcation is the orbit's equations plus one defining
+condition; in the plane of two parameters these solutions form a curve, followed by the same
+pseudo-arclength method with the extended system (``continue_bifurcation``).
+
+* ``plane``: the two parameters and the model numbers they set.
+* ``defining``: the defining conditions (multiplier ±1, grazing, onset of sticking) and the
+  extended system's residual, exact Jacobian, tangent and Newton corrector.
+* ``contact``: the contact boundary ``Λ_c = 1/max(−ÿ)`` as a curve, with its corners.
+* ``codim2``: codimension-two points: test functions, location, restart onto the other curve.
+* ``twoparam``: :class:`BifurcationCurve` and the loop that follows a curve both ways.
+* ``bifcurve``: :func:`continue_bifurcation`, which checks the request and starts the curve.
+* ``atlas``: :func:`atlas`, every curve over a window of two parameters that continuation finds
+  from a few seeds.
 """
 from __future__ import annotations
 
 from .admissibility import ADMISSIBLE, CONTACT_MATCH
+from .atlas import ATLAS_AXES, atlas, axes_supported
+from .bifcurve import CURVE_STARTS, contact_bifurcation, continue_bifurcation
+from .codim2 import CODIM2_KINDS, Codim2Point
 from .driver import CONTINUATION_VERSION, MAX_POINTS, continue_orbit
 from .events import LOCATE_TOL
 from .orbits import (MAX_ORBIT_IMPACTS, MAX_ORBIT_PERIOD, ContinuationError, PeriodicOrbit,
@@ -106,9 +123,12 @@ from .branch import _Branch  # noqa: F401
 from .parameter import _Param  # noqa: F401
 from .stability import _local_maps  # noqa: F401
 from .sticking import _release_roots  # noqa: F401
+from .twoparam import CURVE_KINDS, MAX_CURVE_POINTS, BifurcationCurve
 
 __all__ = [
-    "ADMISSIBLE", "BIFURCATION_KINDS", "CONTACT_MATCH", "CONTINUATION_VERSION", "IMPACT_COLUMNS",
+    "ADMISSIBLE", "ATLAS_AXES", "BIFURCATION_KINDS", "atlas", "axes_supported", "BifurcationCurve", "CODIM2_KINDS", "CONTACT_MATCH",
+    "CURVE_KINDS", "CURVE_STARTS", "Codim2Point", "MAX_CURVE_POINTS", "contact_bifurcation",
+    "continue_bifurcation", "CONTINUATION_VERSION", "IMPACT_COLUMNS",
     "LOCATE_TOL", "MAX_ORBIT_IMPACTS", "MAX_ORBIT_PERIOD", "MAX_POINTS", "NEWTON_TOL",
     "PARAMETERS", "POINT_COLUMNS", "TERMINAL", "Bifurcation", "ContinuationError",
     "ContinuationResult", "PeriodicOrbit", "c_orbit", "continue_orbit", "find_orbit",

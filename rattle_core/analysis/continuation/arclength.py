@@ -24,6 +24,12 @@ def _follow(run: _Run, br: _Branch, X, tau, ds, ds_min, ds_max, first_event: str
     spec = run.spec
     vs = run.v_stick
     orb = br.orbit(X)
+    if not orb.admissible:
+        # a sign change seen from a virtual orbit is no event of the model: nothing to locate
+        run.status = "inadmissible"
+        run.message = (f"the start is not an orbit of the model at {spec.name} = "
+                       f"{spec.value_of(X[-1]):.10g}: {orb.reason}")
+        return
     run.add(orb, X[-1], first_event)
     tests = _tests_of(orb, vs)
     X_start = X.copy()

@@ -9,7 +9,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from ...model.params import RattleParams, check_range
+from ...model.params import RattleParams, check_int, check_range
 from ...solver.trajectory import SOLVER_VERSION
 from .arclength import _follow
 from .orbits import PeriodicOrbit
@@ -84,17 +84,21 @@ def continue_orbit(start, param: str | None = None, *, bounds: Sequence[float] |
         params0 = start.orbit.params
     elif isinstance(start, PeriodicOrbit):
         params0 = start.params
+        if not start.admissible:
+            raise ValueError(f"start is not an orbit of the model, so it cannot be continued: "
+                             f"{start.reason} (a closed-form or Newton solution that violates "
+                             "the backlash or a contact condition; check .admissible first)")
     elif isinstance(start, RattleParams):
         params0 = start
     else:
         raise ValueError(f"start must be a PeriodicOrbit, a RattleParams or a Bifurcation, got "
                          f"{type(start).__name__}")
-    if direction not in (1, -1):
+    if isinstance(direction, (bool, np.bool_)) or direction not in (1, -1):
         raise ValueError(f"direction = {direction!r}; allowed: 1 (increasing) or -1 (decreasing)")
     ds = check_range("ds", ds, 0.0, 1.0, lo_open=True)
     ds_max = check_range("ds_max", ds_max, ds, 10.0)
     ds_min = check_range("ds_min", ds_min, 0.0, ds, lo_open=True)
-    max_points = int(check_range("max_points", max_points, 1, MAX_POINTS))
+    max_points = check_int("max_points", max_points, 1, MAX_POINTS)
     if isinstance(start, Bifurcation):
         spec = start._spec
         physical = spec.physical

@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from ...model.excitation import TWO_PI
-from ...model.params import RattleParams, check_range
+from ...model.params import RattleParams, check_int, check_range
 from .admissibility import _REASONS, _inspect
 from .parameter import _KIND_LAM
 from .shooting import NEWTON_TOL, _newton, _scaled_norm, _system
@@ -253,7 +253,7 @@ def solve_orbit(params: RattleParams, t, u, flank, period: int, *, maxit: int = 
     """
     if not isinstance(params, RattleParams):
         raise ValueError(f"params must be a RattleParams, got {type(params).__name__}")
-    period = int(check_range("period", period, 1, 16 * MAX_ORBIT_PERIOD))
+    period = check_int("period", period, 1, 16 * MAX_ORBIT_PERIOD)
     t = np.atleast_1d(np.asarray(t, dtype=np.float64))
     u = np.atleast_1d(np.asarray(u, dtype=np.float64))
     fl = np.atleast_1d(np.asarray(flank)).astype(np.int8)
@@ -297,7 +297,7 @@ def c_orbit(params: RattleParams, n: int = 1, which: str = "stable") -> Periodic
     from ..overlays import one_sided_orbits
     if which not in ("stable", "unstable"):
         raise ValueError(f"which = {which!r}; allowed: 'stable' or 'unstable'")
-    n = int(check_range("n", n, 1, MAX_ORBIT_PERIOD))
+    n = check_int("n", n, 1, MAX_ORBIT_PERIOD)
     orbits = one_sided_orbits(params, n)
     if not orbits:
         raise ContinuationError(f"no one-sided period-{n} orbit at {params}: ẏ never reaches "

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...model.excitation import TWO_PI
-from ...model.params import RattleParams, check_range
+from ...model.params import RattleParams, check_int, check_range
 from .orbits import MAX_ORBIT_PERIOD, ContinuationError, PeriodicOrbit, solve_orbit
 from .sticking import _releases, _simulate_strict, stick_orbit
 
@@ -27,8 +27,8 @@ def find_orbit(params: RattleParams, *, x0: float | None = None, v0: float = 0.0
     from ..classify import detect_period
     if not isinstance(params, RattleParams):
         raise ValueError(f"params must be a RattleParams, got {type(params).__name__}")
-    max_period = int(check_range("max_period", max_period, 1, MAX_ORBIT_PERIOD))
-    transient = int(check_range("transient", transient, 0, 1_000_000))
+    max_period = check_int("max_period", max_period, 1, MAX_ORBIT_PERIOD)
+    transient = check_int("transient", transient, 0, 1_000_000)
     rec = 4 * max_period
     tr = _simulate_strict(params, periods=rec, transient=transient, x0=x0, v0=v0, t0=t0)
     n = detect_period(tr.strobe_x, tr.strobe_v, params.j, max_period, 1e-9)
@@ -44,7 +44,7 @@ def find_orbit(params: RattleParams, *, x0: float | None = None, v0: float = 0.0
 def orbit_from_trajectory(tr, period: int) -> PeriodicOrbit:
     """The periodic orbit of period ``period`` at the end of a :class:`Trajectory`."""
     p = tr.params
-    period = int(check_range("period", period, 1, MAX_ORBIT_PERIOD))
+    period = check_int("period", period, 1, MAX_ORBIT_PERIOD)
     rel = _releases(tr)
     t_end = tr.t_end
     if rel and rel[-1][0] > t_end - 2 * TWO_PI * period:

@@ -6,7 +6,7 @@ chatter before each stick phase counts as one element of the impact pattern.
 """
 from __future__ import annotations
 
-import inspect
+import dataclasses
 import math
 
 import numpy as np
@@ -20,16 +20,10 @@ from .parameter import _Param
 
 
 def _simulate_strict(params: RattleParams, **kw):
-    """``simulate`` without the noise that resolves rounding-decided captures, where it exists.
-
-    Periodic orbits are exact: they need the deterministic solver, whatever its defaults.
-    """
-    if _SIMULATE_HAS_NOISE:
-        kw.setdefault("noise", False)
-    return simulate(params, **kw)
-
-
-_SIMULATE_HAS_NOISE = "noise" in inspect.signature(simulate).parameters
+    """``simulate`` of the strict model (no noise): periodic orbits are exact, so they need the
+    deterministic solver, whatever the parameters' noise level.  The trajectory keeps the
+    caller's parameters, so the orbits built from it carry them."""
+    return dataclasses.replace(simulate(params.replace(noise=0.0), **kw), params=params)
 
 
 def _releases(tr) -> list[tuple[float, int, float, float]]:

@@ -1,0 +1,98 @@
+"""Whether the current run's chaotic statistics depend on the noise level: a background check.
+
+On a run that is not periodic, :class:`NoiseView` asks the session's job pool for
+``rattle_core.noise_sensitivity`` (8 runs per level, levels 1e-12 … 1e-4 and the state's own)
+and shows the answer as a badge: which statistic moves, over which levels, and what that means
+for a real gearbox; or that the statistics hold, with the ensemble's interval at the state's
+noise level. A periodic run needs no check: its statistics are exact. A newer run replaces the
+check (the pool keeps one job per session and kind).
+"""
+from __future__ import annotations
+
+import html
+import math
+from typing import Any
+
+import panel as pn
+import param
+
+from ..state import ExplorerState
+from ..ui.labels import num
+from ..work import tasks
+
+RUNS, PERIODS, TRANSIENT = 8, 2000, 300
+MEANING = ("For a real gearbox this means the rattle level depends on how much the impacts "
+           "scatter, which the model cannot know: read the range as the answer, or measure "
+           "the scatter.")
+
+
+class NoiseView(pn.viewable.Viewer):
+    """The noise-sensitivity badge of the current run (see the module docstring)."""
+
+    state = param.ClassSelector(class_=ExplorerState)
+    jobs = param.Parameter()
+
+    def __init__(self, **params: Any):
+        super().__init__(**params)
+        self.badge = pn.pane.HTML("", css_classes=["noise-badge"], sizing_mode="stretch_width",
+                                  visible=False)
+        self.progress = pn.indicators.Progress(value=0, max=100, width=160, visible=False)
+        self.result: dict | None = None
+        self._key: tuple | None = None
+        self.state.param.watch(self._check, "result")
+        self._check()
+
+    def __panel__(self):
+        return pn.Row(self.badge, self.progress, sizing_mode="stretch_width")
+
+    def _check(self, *_: Any) -> None:
+        run = self.state.result
+        if run is None:
+            return
+        key = run.params.key()
+        if key == self._key:
+            return
+        self._key, self.result = key, None
+        if run.cls.period > 0 or run.cls.impacts_per_period == 0:
+            self.badge.visible = self.progress.visible = False
+            return
+        self._show("checking whether the statistics depend on the noise level "
+                   f"({RUNS} runs at each of 6 levels)…", "pending")
+        self.progress.param.update(value=0, visible=True)
+        try:
+            self.jobs.submit("noise", tasks.noise_check, (run.params, RUNS, PERIODS, TRANSIENT),
+                             time_limit=180.0,
+                             on_progress=lambda f, k=key: self._progress(k, f),
+                             on_done=lambda out, k=key, p=run.params: self._done(k, p, out),
+                             on_error=lambda msg, k=key: self._error(k, msg))
+        except RuntimeError as exc:
+            self._error(key, str(exc))
+
+    def _progress(self, key: tuple, fraction: float) -> None:
+        if key == self._key:
+            self.progress.value = int(100 * fraction)
+
+    def _done(self, key: tuple, params: Any, out: dict) -> None:
+        if key != self._key:
+            return
+        self.progress.visible = False
+        self.result = out
+        if out["sensitive"]:
+            self._show(f"{out['describe']}. {MEANING}", "sensitive")
+            return
+        table = out["table"]
+        i = min(range(len(table["noise"])), key=lambda k: abs(table["noise"][k] - params.noise))
+        v, ci = table["mean_active_impulse"][i], table["mean_active_impulse_ci95"][i]
+        where = (f"mean active impulse {num(v)} ± {num(ci, 2)} over {RUNS} runs at noise "
+                 f"{params.noise:g}" if math.isfinite(v) else "")
+        self._show(f"{out['describe']}: {where}", "steady")
+
+    def _error(self, key: tuple, msg: str) -> None:
+        if key == self._key:
+            self.progress.visible = False
+            self._show(f"the noise check could not run: {msg}", "failed")
+
+    def _show(self, text: str, kind: str) -> None:
+        self.badge.object = (f'<div class="noise-check" data-kind="{kind}">'
+                             f"{html.escape(text)}</div>")
+        self.badge.visible = True

@@ -1,0 +1,330 @@
+"""continue_bifurcation(): the request checked, the curve started, the result assembled."""
+from __future__ import annotations
+
+import dataclasses
+import math
+import threading
+import time
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from ...model.params import RattleParams, check_range
+from ...solver.trajectory import SOLVER_VERSION
+from .codim2 import Codim2Point, _pd_direction, _reduced
+from .contact import _ContactSystem, _contact_side, _global_start, _polish_t
+from .defining import _Extended, _Grazing, _Multiplier, _StickOnset
+from .driver import CONTINUATION_VERSION
+from .orbits import ContinuationError
+from .parameter import _KIND_J, _KIND_LAM, _KIND_R, _Param  # noqa: F401
+from .plane import _Plane
+from .results import Bifurcation
+from .twoparam import MAX_CURVE_POINTS, BifurcationCurve, _check_cancel, _finish, _trace
+
+#: Bifurcation kinds that :func:`continue_bifurcation` follows in a second parameter.
+CURVE_STARTS = ("fold", "period_doubling", "grazing", "stick_onset", "permanent_contact")
+
+
+def continue_bifurcation(bifurcation, param2: str | None = None, *,
+                         bounds: Sequence[float] | None = None,
+                         bounds1: Sequence[float] | None = None, direction: int = 0,
+                         ds: float = 0.02, ds_min: float = 1e-8, ds_max: float = 0.1,
+                         max_points: int = 1000, physical=None,
+                         progress: Callable[[int, int], Any] | None = None,
+                         cancel: threading.Event | Callable[[], bool] | None = None
+                         ) -> BifurcationCurve:
+    """Follow a bifurcation in a second parameter: its curve in the plane of two parameters.
+
+    The orbit's shooting equations plus the bifurcation's defining condition form an extended
+    system (:mod:`rattle_core.analysis.continuation.defining`), solved by Newton's method with
+    exact Jacobians and followed by pseudo-arclength steps with adaptive length.
+    Codimension-two points on the way are located and labelled
+    (:mod:`~rattle_core.analysis.continuation.codim2`).
+
+    Parameters
+    ----------
+    bifurcation : Bifurcation or Codim2Point
+        From :attr:`ContinuationResult.bifurcations`: a ``fold``, ``period_doubling``,
+        ``grazing``, ``stick_onset``, or ``permanent_contact`` (the contact boundary
+        ``Λ_c = 1/max(−ÿ)``, where rattle starts; :func:`contact_bifurcation` makes one
+        directly).  Or a codimension-two point of an earlier curve: the other curve through it
+        is followed.
+    param2 : str
+        The second parameter: ``lam``, ``r``, ``j``, ``hK``, ``phiK`` (degrees), or ``rpm``,
+        ``drag_torque`` with ``physical`` (or when the bifurcation was found in physical
+        units).  It must change another model number than the first.
+    bounds : (float, float), optional
+        The curve stops where ``param2`` leaves this interval (its units).  Default: the
+        model's range.
+    bounds1 : (float, float), optional
+        The same for the bifurcation's own parameter.
+    direction : {0, 1, -1}
+        Both ways from the start (0), or only towards increasing (1) or decreasing (−1)
+        internal ``param2``.
+    ds, ds_min, ds_max : float
+        First, smallest and largest arclength step.
+    max_points : int
+        Most curve points, in [1, 20000].
+    physical : PhysicalParams, optional
+        The gear in physical units, for ``param2`` in ``rpm`` or ``drag_torque``.
+    progress : callable(done, max_points), optional
+    cancel : threading.Event or callable() -> bool, optional
+
+    Returns
+    -------
+    BifurcationCurve
+        ``points`` (a DataFrame with a column per parameter, the impulses and multipliers),
+        ``codim2``, ``status``.
+
+    Raises
+    ------
+    ValueError
+        For a kind that has no curve, an unknown or conflicting ``param2``, bad bounds.
+    ContinuationError
+        When the extended system cannot be solved at the start.
+    """
+    t_start = time.perf_counter()
+    _check_cancel(cancel)
+    if direction not in (0, 1, -1):
+        raise ValueError(f"direction = {direction!r}; allowed: 0 (both), 1 or -1")
+    ds = check_range("ds", ds, 0.0, 1.0, lo_open=True)
+    ds_max = check_range("ds_max", ds_max, ds, 10.0)
+    ds_min = check_range("ds_min", ds_min, 0.0, ds, lo_open=True)
+    max_points = int(check_range("max_points", max_points, 1, MAX_CURVE_POINTS))
+    if isinstance(bifurcation, Codim2Point):
+        if not bifurcation.can_restart:
+            raise ValueError(f"the {bifurcation.kind} point offers no other curve to follow")
+        if param2 is not None and param2 != bifurcation.param2:
+            raise ValueError(f"param2 = {param2!r}, but the point lies in the plane "
+                             f"({bifurcation.param1}, {bifurcation.param2}); restart in it")
+        ext, X0, how = bifurcation._restart
+        plane = ext.plane
+        kind = ext.cond.kind
+        X0 = _first_point(ext, X0, how, bifurcation)
+        start = {"codim2": bifurcation.kind, "value1": bifurcation.value1,
+                 "value2": bifurcation.value2}
+        v_stick = float(bifurcation.orbit.params.v_stick)
+        event = bifurcation.kind
+    elif isinstance(bifurcation, Bifurcation):
+        if bifurcation.kind not in CURVE_STARTS:
+            raise ValueError(f"bifurcation kind {bifurcation.kind!r} has no curve to follow; "
+                             f"allowed: {', '.join(CURVE_STARTS)}")
+        if param2 is None:
+            raise ValueError("param2 must name the second parameter (lam, r, j, hK, phiK, rpm "
+                             "or drag_torque)")
+        spec1 = bifurcation._spec
+        base = bifurcation.orbit.params
+        phys = spec1.physical if spec1.physical is not None else physical
+        spec2 = _Param.make(param2, base, phys if param2 in ("rpm", "drag_torque") else None)
+        if param2 == spec1.name:
+            raise ValueError(f"param2 = {param2!r} is the bifurcation's own parameter; choose "
+                             "another")
+        plane = _Plane(spec1, spec2, base)
+        q1, q2 = float(bifurcation.q), float(spec2.q0)
+        if spec2.physical is not None and not _same(plane.params(q1, q2), base):
+            raise ValueError("physical does not describe the bifurcation's gear "
+                             f"(physical.to_dimensionless() = {spec2.base}, bifurcation at "
+                             f"{base})")
+        v_stick = float(base.v_stick)
+        kind, ext, X0 = _from_bifurcation(plane, bifurcation, q1, q2, v_stick)
+        start = {"bifurcation": bifurcation.kind, "param": bifurcation.param,
+                 "value": bifurcation.value}
+        event = ""
+    else:
+        raise ValueError(f"bifurcation must be a Bifurcation or a Codim2Point, got "
+                         f"{type(bifurcation).__name__}")
+    bounds_q = (_bounds_q(plane.spec1, bounds1, "bounds1"),
+                _bounds_q(plane.spec2, bounds, "bounds"))
+    for i, (lo, hi) in zip((-2, -1) if kind != "contact" else (1, 2), bounds_q):
+        if not lo - 1e-9 * (1 + abs(lo)) <= X0[i] <= hi + 1e-9 * (1 + abs(hi)):
+            name = plane.spec1.name if i in (-2, 1) else plane.spec2.name
+            spec = plane.spec1 if i in (-2, 1) else plane.spec2
+            raise ValueError(f"the start, {name} = {spec.value_of(X0[i]):.10g}, lies outside "
+                             f"its bounds [{spec.value_of(lo):.10g}, {spec.value_of(hi):.10g}]")
+    names = plane.names
+    provenance = {
+        "kind": kind, "param1": names[0], "param2": names[1], "start": start,
+        "params": plane.base.to_dict(),
+        "physical": dataclasses.asdict(plane.spec1.physical or plane.spec2.physical)
+        if (plane.spec1.physical or plane.spec2.physical) is not None else None,
+        "settings": {"bounds": [plane.spec2.value_of(v) for v in bounds_q[1]],
+                     "bounds1": [plane.spec1.value_of(v) for v in bounds_q[0]],
+                     "direction": direction, "ds": ds, "ds_min": ds_min, "ds_max": ds_max,
+                     "max_points": max_points},
+        "solver_version": SOLVER_VERSION, "continuation_version": CONTINUATION_VERSION,
+    }
+    if kind == "contact":
+        return _contact_curve(ext, X0, direction, ds, ds_min, ds_max, bounds_q, max_points,
+                              cancel, names, provenance, t_start)
+    run, points = _trace(ext, X0, direction, ds, ds_min, ds_max, bounds_q, max_points,
+                         progress, cancel, v_stick, kind, event)
+    return _finish(kind, ext, run, points, names, provenance, t_start)
+
+
+def contact_bifurcation(params: RattleParams, param: str = "lam", physical=None) -> Bifurcation:
+    """The contact boundary ``Λ_c = 1/max(−ÿ)`` as a bifurcation in ``param`` (``lam``, or
+    ``rpm``/``drag_torque`` with ``physical``), ready for :func:`continue_bifurcation`."""
+    from ..overlays import contact_boundary
+    from .orbits import PeriodicOrbit
+    if not isinstance(params, RattleParams):
+        raise ValueError(f"params must be a RattleParams, got {type(params).__name__}")
+    spec = _Param.make(param, params, physical)
+    if spec.kind != _KIND_LAM:
+        raise ValueError(f"param = {param!r}: the contact boundary is a value of Λ; allowed: "
+                         "lam, or rpm/drag_torque with displacement excitation")
+    lam_c = contact_boundary(spec.base)
+    q = lam_c
+    p = spec.base.replace(lam=lam_c)
+    orb = PeriodicOrbit(params=p, period=1, t=np.zeros(0), u=np.zeros(0),
+                        flank=np.zeros(0, np.int8), w=np.zeros(0), stick=np.zeros((0, 3)),
+                        monodromy=np.zeros((2, 2)), multipliers=np.zeros(2, complex),
+                        residual=0.0, reason="", gap_min=math.inf)
+    return Bifurcation(kind="permanent_contact", param=param, value=spec.value_of(q), point=0,
+                       orbit=orb, detail={}, message=f"contact boundary at {param} = "
+                       f"{spec.value_of(q):.10g}", q=q, _spec=spec)
+
+
+def _same(a: RattleParams, b: RattleParams) -> bool:
+    da, db = a.to_dict(), b.to_dict()
+    for k in da:
+        x, y = np.atleast_1d(da[k]), np.atleast_1d(db[k])
+        n = max(len(x), len(y))
+        x = np.pad(np.asarray(x, float), (0, n - len(x)))
+        y = np.pad(np.asarray(y, float), (0, n - len(y)))
+        if not np.allclose(x, y, rtol=1e-9, atol=1e-12):
+            return False
+    return True
+
+
+def _bounds_q(spec: _Param, bounds, label: str) -> tuple[float, float]:
+    lo_q, hi_q = spec.q_range()
+    if spec.kind in (_KIND_LAM, _KIND_J):
+        lo_q = max(lo_q, 1e-9)
+    if spec.kind == _KIND_R:
+        hi_q = min(hi_q, 1.0)
+    if bounds is None:
+        return lo_q, hi_q
+    try:
+        b0, b1 = (float(v) for v in bounds)
+    except (TypeError, ValueError):
+        raise ValueError(f"{label} must be two numbers (low, high), got {bounds!r}") from None
+    if not (math.isfinite(b0) and math.isfinite(b1)) or b0 >= b1:
+        raise ValueError(f"{label} = {bounds!r} must be two finite numbers, low < high")
+    qa, qb = sorted((spec.q_of(b0), spec.q_of(b1)))
+    for v, qv in ((b0, qa), (b1, qb)):
+        try:
+            spec.params(qv)
+        except ValueError as exc:
+            raise ValueError(f"{label}: {spec.name} = {v!r} is outside the model's range "
+                             f"({exc})") from None
+    return max(lo_q, qa), min(hi_q, qb)
+
+
+def _from_bifurcation(plane: _Plane, b: Bifurcation, q1: float, q2: float, v_stick: float):
+    """The extended system of a one-parameter bifurcation, and its first point solved."""
+    if b.kind == "permanent_contact":
+        sys_ = _ContactSystem(plane)
+        X = _global_start(plane, q1, q2)
+        X[0] = _polish_t(sys_, X)
+        Xc, _ = sys_.correct(X, None, maxit=40, fix=-1)
+        if Xc is None:
+            raise ContinuationError(f"no contact boundary near {b.param} = {b.value:.10g}")
+        return "contact", sys_, Xc
+    orb = b.orbit
+    if orb.kind != "impact" or b._restart is None or b._restart[1] is None:
+        raise ValueError(f"the {b.kind} at {b.param} = {b.value:.10g} is on an orbit that "
+                         "sticks; only bifurcations of impact orbits have curves here")
+    br = b._restart[1]
+    fl, n = br.fl, br.n
+    z = np.asarray(b._restart[2][:-1], dtype=float)
+    X = np.append(z, [q1, q2])
+    if b.kind == "period_doubling":
+        ext = _Extended(plane, fl, n, _Multiplier(-1.0))
+    elif b.kind == "fold":
+        ext = _Extended(plane, fl, n, _Multiplier(1.0))
+    elif b.kind == "grazing" and b.detail.get("type") == "flight":
+        k, tg, wall = orb.gap_where
+        ext = _Extended(plane, fl, n, _Grazing(k, wall, tg - z[2 * k]))
+    elif b.kind == "grazing":
+        probe = _Extended(plane, fl, n, None)
+        k = int(b.detail.get("impact", int(np.argmin(-orb.flank * orb.w))))
+        fl, X, cond = _reduced(probe, X, k)
+        ext = _Extended(plane, fl, n, cond)
+    else:
+        ext = _Extended(plane, fl, n, _StickOnset(int(b.detail["impact"]), v_stick))
+    Xc, _ = ext.correct(X, None, maxit=40, fix=-1)
+    if Xc is None:
+        raise ContinuationError(f"the {b.kind} at {b.param} = {b.value:.10g} could not be "
+                                "solved as an extended system (its defining condition does "
+                                "not hold nearby)")
+    ext.accept(Xc)
+    return b.kind, ext, Xc
+
+
+def _first_point(ext, X0, how: str, point: Codim2Point):
+    """Solve the other curve's first point at a codimension-two point."""
+    if how == "doubled":
+        # the fold of the doubled orbits starts at zero amplitude; begin a little way along it
+        e = _pd_direction(_Extended(ext.plane, ext.fl[:len(ext.fl) // 2], ext.n // 2, None),
+                          np.append(X0[:len(X0) // 2 - 1], X0[-2:]))
+        for a in (2e-2, 1e-2, 5e-3):
+            X, _ = ext.correct(X0 + a * e, e, maxit=30)
+            if X is not None:
+                m = (len(X) - 2) // 2
+                if np.max(np.abs(X[m:2 * m] - X[:m] - _shift(m, ext.n // 2))) > 1e-8:
+                    ext.accept(X)
+                    return X
+        raise ContinuationError(f"could not start the fold curve of the period-{ext.n} orbits "
+                                f"at {point.kind} ({point.param1} = {point.value1:.10g})")
+    X, _ = ext.correct(X0, None, maxit=40, fix=-1)
+    if X is None and how == "degenerate":
+        # the point itself is singular for the other curve: start just beside it
+        tau = ext.tangent(X0)
+        for h in (1e-6, 1e-5, 1e-4, 1e-3):
+            for sgn in (1.0, -1.0):
+                X, _ = ext.correct(X0 + sgn * h * tau, tau, maxit=30)
+                if X is not None:
+                    break
+            if X is not None:
+                break
+    if X is None:
+        raise ContinuationError(f"could not start the {ext.cond.kind} curve at the "
+                                f"{point.kind} point ({point.param1} = {point.value1:.10g}, "
+                                f"{point.param2} = {point.value2:.10g})")
+    ext.accept(X)
+    return X
+
+
+def _shift(m: int, n: int):
+    s = np.zeros(m)
+    s[0::2] = 2.0 * np.pi * n
+    return s
+
+
+def _contact_curve(sys_, X0, direction, ds, ds_min, ds_max, bounds_q, max_points, cancel,
+                   names, provenance, t_start) -> BifurcationCurve:
+    import pandas as pd
+    tau0 = sys_.tangent(X0)
+    if tau0[-1] < 0:
+        tau0 = -tau0
+    count = [1]
+    halves, statuses, messages = [], [], []
+    sides = [1, -1] if direction == 0 else [direction]
+    for sgn in sides:
+        pts, st, msg = _contact_side(sys_, X0.copy(), sgn * tau0, ds, ds_min, ds_max, bounds_q,
+                                     max_points, count, cancel)
+        halves.append(pts)
+        statuses.append(st)
+        messages.append(msg)
+    pts = halves[1][::-1] + halves[0][1:] if len(halves) == 2 else halves[0]
+    rows = []
+    for i, (X, ev) in enumerate(pts):
+        v1, v2 = sys_.plane.value_of(X[1], X[2])
+        rows.append({"point": i, names[0]: v1, names[1]: v2, "q1": float(X[1]),
+                     "q2": float(X[2]), "t_star": float(X[0] % (2 * np.pi)), "event": ev})
+    status = statuses[0] if len(set(statuses)) == 1 else "+".join(statuses)
+    msg = "; ".join(f"{'up' if s > 0 else 'down'}: {m}" for s, m in zip(sides, messages))
+    return BifurcationCurve(kind="contact", param1=names[0], param2=names[1],
+                            points=pd.DataFrame(rows), codim2=[], status=status, message=msg,
+                            provenance=provenance, seconds=time.perf_counter() - t_start,
+                            _ext=None, _X=[X for X, _ in pts])
