@@ -30,8 +30,8 @@ from ..work import tasks
 from ..core import REGIME_CODES, excitation, paper_phi2_to_core, plan_map
 from ..state import ExplorerState, MapSettings
 from ..work.threads import HV_LOCK, later
-from ..ui.labels import REGIME_COLOR, map_legend, text_html
-from ..ui.plots import TOOLS, HoloViewsPane, caption, file_stem, save_as
+from ..ui.labels import REGIME_COLOR, map_key, map_legend, text_html
+from ..ui.plots import TOOLS, HoloViewsPane, caption, file_stem, key_legend, save_as
 from ..ui.widgets import Choice, Field, message
 
 AXES = {"lam": "Λ", "r": "r", "j": "j", "h2": "H₂/H₁", "phi2": "φ₂ [°]",
@@ -284,6 +284,7 @@ class MapsView(pn.viewable.Viewer):
                 plot.state.title.text_font_size = "9pt"
                 me._figure = weakref.ref(plot.state)
                 save_as(lambda: me._stem)(plot, element)
+                key_legend(plot.state, map_key(me.result, me.settings.field))
         return (self.image * self.marker).opts(
             hv.opts.Overlay(width=640, height=520, hooks=[name_plot]))
 

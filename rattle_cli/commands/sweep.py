@@ -22,8 +22,8 @@ from rattle_core.store.exports import TABLE_SUFFIXES, sweep_frames, write_table
 from rattle_core.store.files import save_map, save_result
 from rattle_core.store.requests import run_map
 
-from ..common import (CLIError, Progress, add_command, axis_label, check_output, finite, info,
-                      label, user_permissions)
+from ..common import (CLIError, Progress, add_command, axis_label, check_output,
+                      distinct_outputs, finite, info, label, user_permissions)
 from ..options import add_model_options, build_params, float_list
 
 HELP = "bifurcation diagram (impulses against a parameter) to a file plus PNG"
@@ -114,8 +114,6 @@ def _scheduler(args: argparse.Namespace) -> str | None:
     if args.mode == "continuation":
         raise CLIError("continuation sweeps run value after value on one core; drop --dask/--scheduler "
                        "or use --mode fresh")
-    if not 1 <= args.workers <= 256:
-        raise CLIError(f"--workers {args.workers} is outside the allowed range [1, 256]")
     return args.scheduler or "local"
 
 
@@ -138,12 +136,17 @@ def run(args: argparse.Namespace) -> int:
     ($RATTLE_CACHE_DIR; see 'rattle cache').  One request may run up to 1e8 forcing periods
     (values × (transient + record)), 5 to 10 minutes on two cores
     (rattle_core.batch.sweep.PERIOD_BUDGET)."""
+    if not 1 <= args.workers <= 256:
+        raise CLIError(f"--workers {args.workers} is outside the allowed range [1, 256]")
     out = check_output(args.out, SWEEP_SUFFIXES, "--out")
-    png = None
+    png = summary = None
     if not args.no_png:
-        png = check_output(args.png, (".png",), "--png") if args.png is not None else out.with_suffix(".png")
+        png = (check_output(args.png, (".png",), "--png") if args.png is not None else
+               check_output(str(out.with_suffix(".png")), (".png",), "the PNG beside --out (--no-png: none)"))
     if out.suffix.lower() != ".npz":
-        check_output(str(out.with_name(out.stem + "_summary" + out.suffix)), SWEEP_SUFFIXES, "--out")
+        summary = check_output(str(out.with_name(out.stem + "_summary" + out.suffix)),
+                               SWEEP_SUFFIXES, "the summary beside --out")
+    distinct_outputs(out, png, summary)
     for flag in ("x0", "v0"):
         finite(getattr(args, flag), f"--{flag.replace('_', '-')}")
     params, phys = build_params(args)

@@ -134,7 +134,7 @@ def check_start(base: RattleParams, columns: dict[str, np.ndarray], x0) -> float
     if x0 is None:
         return None
     x0 = check_range("x0", x0, -1e6, 1e6)
-    lam, r, j, h, phi, vs = param_arrays(base, columns)
+    _, _, j, h, phi, *_ = param_arrays(base, columns)
     y0 = np.sum(h * np.cos(phi), axis=1)  # y(0) = Σ h_k cos(−φ_k)
     bad = (x0 < y0 - 1e-12) | (x0 > y0 + j + 1e-12)
     if np.any(bad):
