@@ -16,6 +16,7 @@ from .views.continuation import ContinuationView
 from .views.controls import Controls
 from .views.diagram import DiagramView
 from .views.explorer import RegimeView, SectionView
+from .views.gearbox import GearboxView
 from .views.maps import MapsView
 from .views.noise import NoiseView
 from .work.threads import HV_LOCK
@@ -52,16 +53,18 @@ class Dashboard:
         self.continuation = ContinuationView(state=s, jobs=jobs)
         self.sound = SoundView(state=s)
         self.maps = MapsView(state=s, jobs=jobs)
+        self.gearbox = GearboxView(state=s, jobs=jobs)
         self.views = [self.controls, self.units, self.regime, self.noise, self.time_history,
                       self.section,
-                      self.diagram, self.continuation, self.sound, self.maps]
+                      self.diagram, self.continuation, self.sound, self.maps, self.gearbox]
         explorer = pn.Column(
             self.regime, self.noise,
             pn.Row(self.time_history, self.units.table, sizing_mode="stretch_width"),
             pn.Row(self.section, pn.Column(self.diagram, self.continuation, sizing_mode="stretch_width"),
                    sizing_mode="stretch_width"),
             self.sound, sizing_mode="stretch_width")
-        self.tabs = pn.Tabs(("Explorer", explorer), ("Maps", self.maps), dynamic=True,
+        self.tabs = pn.Tabs(("Explorer", explorer), ("Maps", self.maps), ("Gearbox", self.gearbox),
+                            dynamic=True,
                             sizing_mode="stretch_width", css_classes=["main-tabs"])
         self.layout = pn.template.BootstrapTemplate(
             title="Rattle Explorer: gear rattle, exactly",
