@@ -295,10 +295,10 @@ def rejection(state: param.Parameterized, name: str, value: Any, reason: str = "
         whole = "a whole number" if isinstance(p, param.Integer) else "a number"
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             what = f"{label} must be {whole}, got {_show(value)}"
+        elif not math.isfinite(value):  # before int(), which refuses NaN and infinities
+            what = f"{label} must be finite, got {value!r}"
         elif isinstance(p, param.Integer) and value != int(value):
             what = f"{label} = {value!r} must be {whole}"
-        elif not math.isfinite(value):
-            what = f"{label} must be finite, got {value!r}"
         else:
             shown = int(value) if isinstance(p, param.Integer) else float(value)
             what = f"{label} = {shown!r} is outside the allowed range"
