@@ -17,6 +17,7 @@ from .views.controls import Controls
 from .views.diagram import DiagramView
 from .views.explorer import RegimeView, SectionView
 from .views.maps import MapsView
+from .views.motion import MotionView
 from .views.noise import NoiseView
 from .work.threads import HV_LOCK
 from .session import Session
@@ -48,16 +49,18 @@ class Dashboard:
         self.noise = NoiseView(state=s, jobs=jobs)
         self.time_history = TimeHistoryView(state=s)
         self.section = SectionView(state=s)
+        self.motion = MotionView(state=s)
         self.diagram = DiagramView(state=s, jobs=jobs)
         self.continuation = ContinuationView(state=s, jobs=jobs)
         self.sound = SoundView(state=s)
         self.maps = MapsView(state=s, jobs=jobs)
         self.views = [self.controls, self.units, self.regime, self.noise, self.time_history,
-                      self.section,
+                      self.section, self.motion,
                       self.diagram, self.continuation, self.sound, self.maps]
         explorer = pn.Column(
             self.regime, self.noise,
             pn.Row(self.time_history, self.units.table, sizing_mode="stretch_width"),
+            self.motion,
             pn.Row(self.section, pn.Column(self.diagram, self.continuation, sizing_mode="stretch_width"),
                    sizing_mode="stretch_width"),
             self.sound, sizing_mode="stretch_width")
