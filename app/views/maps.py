@@ -31,8 +31,8 @@ from ..work import tasks
 from ..core import REGIME_CODES, excitation, paper_phi2_to_core, plan_map
 from ..state import ExplorerState, MapSettings
 from ..work.threads import HV_LOCK, later
-from ..ui.labels import REGIME_COLOR, map_legend, text_html
-from ..ui.plots import TOOLS, HoloViewsPane, caption, file_stem, save_as
+from ..ui.labels import REGIME_COLOR, map_key, map_legend, text_html
+from ..ui.plots import TOOLS, HoloViewsPane, caption, file_stem, key_legend, save_as
 from ..ui.widgets import Choice, Field, message
 
 AXES = {"lam": "Λ", "r": "r", "j": "j", "h2": "H₂/H₁", "phi2": "φ₂ [°]",
@@ -73,8 +73,7 @@ class MapsView(pn.viewable.Viewer):
         self._request: dict | None = None
         self._figure = lambda: None
         self._generation = 0
-        self._stem = "rattle_map"
-        self.overlays: list = []  # other views' DynamicMaps drawn over the map (add_overlay)
+        self._stem, self.overlays = "rattle_map", []  # overlays: other views' (add_overlay)
         m.param.watch(self._on_axis, ["x_axis", "y_axis"])
         m.param.watch(self._on_kind, "kind")
         self.state.param.watch(self._on_units, "units")
@@ -286,6 +285,7 @@ class MapsView(pn.viewable.Viewer):
                 plot.state.title.text_font_size = "9pt"
                 me._figure = weakref.ref(plot.state)
                 save_as(lambda: me._stem)(plot, element)
+                key_legend(plot.state, map_key(me.result, me.settings.field))
         return functools.reduce(lambda a, b: a * b, self.overlays, self.image * self.marker).opts(
             hv.opts.Overlay(width=640, height=520, hooks=[name_plot]))
 
