@@ -38,6 +38,16 @@ from rattle_core.store.files import atomic_savez
 from rattle_core.store.exports import impacts_frame
 from rattle_core.store.requests import run_map
 from rattle_core.solver.trajectory import SOLVER_VERSION
+from rattle_core.analysis.loudness import SAMPLE_RATE as LOUDNESS_RATE
+from rattle_core.analysis.loudness import loudness
+from rattle_core.analysis.sound import render, normalize
+from rattle_core.batch.gearbox import GEARBOX
+from rattle_core.batch.gearbox import check_rpm as check_verdict_rpm
+from rattle_core.model.gearbox import (DEFAULT_DURATION_S, DEFAULT_TRANSFER_PA_PER_NS,
+                                       Excitation, Gear, Gearbox)
+from rattle_core.model.orders import SAMPLE_RUNUP, OrderMap
+from rattle_core.paper.drawing import orders_png, verdict_png
+from rattle_core.store.verdicts import cached_verdict
 
 #: Regime letter → meaning, for the letters a classification gives.
 REGIMES = {k: v for k, v in REGIME_MEANING.items() if k != "error"}
@@ -60,4 +70,7 @@ __all__ = [
     "NOISE_DEFAULT", "NOISE_RANGE", "NOISE_LEVELS", "noise_sensitivity",
     "ATLAS_AXES", "ContinuationError", "atlas", "axes_supported", "continue_bifurcation",
     "CODIM2_MARKERS", "CURVE_STYLES",
+    "LOUDNESS_RATE", "loudness", "render", "normalize", "GEARBOX", "DEFAULT_DURATION_S",
+    "DEFAULT_TRANSFER_PA_PER_NS", "Excitation", "Gear", "Gearbox", "SAMPLE_RUNUP", "OrderMap",
+    "orders_png", "verdict_png", "cached_verdict", "check_verdict_rpm",
 ]

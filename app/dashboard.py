@@ -18,6 +18,7 @@ from .views.continuation import ContinuationView
 from .views.controls import Controls
 from .views.diagram import DiagramView
 from .views.explorer import RegimeView, SectionView
+from .views.gearbox import GearboxView
 from .views.maps import MapsView
 from .views.noise import NoiseView
 from .work.threads import HV_LOCK
@@ -56,10 +57,11 @@ class Dashboard:
         self.curve = CurveView(state=s, jobs=jobs)
         self.maps = MapsView(state=s, jobs=jobs)
         self.atlas = AtlasView(state=s, jobs=jobs, maps=self.maps)
+        self.gearbox = GearboxView(state=s, jobs=jobs)
         self.views = [self.controls, self.units, self.regime, self.noise, self.time_history,
                       self.section,
                       self.diagram, self.continuation, self.curve, self.sound, self.maps,
-                      self.atlas]
+                      self.atlas, self.gearbox]
         explorer = pn.Column(
             self.regime, self.noise,
             pn.Row(self.time_history, self.units.table, sizing_mode="stretch_width"),
@@ -68,7 +70,8 @@ class Dashboard:
                    sizing_mode="stretch_width"),
             self.sound, sizing_mode="stretch_width")
         maps_tab = pn.Column(self.maps, self.atlas, sizing_mode="stretch_width")
-        self.tabs = pn.Tabs(("Explorer", explorer), ("Maps", maps_tab), dynamic=True,
+        self.tabs = pn.Tabs(("Explorer", explorer), ("Maps", maps_tab), ("Gearbox", self.gearbox),
+                            dynamic=True,
                             sizing_mode="stretch_width", css_classes=["main-tabs"])
         self.layout = pn.template.BootstrapTemplate(
             title="Rattle Explorer: gear rattle, exactly",

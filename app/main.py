@@ -34,10 +34,12 @@ import panel as pn
 
 if __package__ in (None, ""):  # run as a script by `panel serve app/main.py`
     sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    from app import query
     from app.views import maps as maps_view
     from app.work import jobs, tasks
     from app.dashboard import Dashboard
 else:  # imported as a package: `app` in a checkout, `rattle_app` when installed
+    from . import query
     from .views import maps as maps_view
     from .work import jobs, tasks
     from .dashboard import Dashboard
@@ -92,6 +94,7 @@ def configure() -> None:
     pn.config.inline = False
     hv.extension("bokeh", logo=False)
     _recompute_only_when_needed()
+    query.install()
 
 
 def warm_up(pool: bool = True) -> None:

@@ -174,11 +174,16 @@ def test_ctrl_c_during_start_up_leaves_nothing(after, tmp_path):
 
 
 def test_ctrl_c_in_a_dask_sweep_ends_its_workers(tmp_path):
-    """Ctrl-C in ``sweep --dask local``: status 130, no traceback, the Dask workers gone."""
+    """Ctrl-C in ``sweep --dask local``: status 130, one line, the Dask workers gone.
+
+    (A Dask worker still importing when the signal arrives may print its own interrupted
+    import; the command itself prints none.)
+    """
     proc = _start(["sweep", "--param", "lam", "--start", "0.5", "--stop", "4", "--num", "20000",
                    "--transient", "2000", "--out", str(tmp_path / "d.npz"), "--no-cache",
                    "--dask", "local"], tmp_path)
     err, left = _interrupt(proc, tmp_path, None, 12.0)
     assert proc.returncode == 130, err
-    assert "Traceback" not in err, err
+    assert "rattle: interrupted" in err
+    assert "rattle_cli" not in err and "rattle_core" not in err, err
     assert left == []
