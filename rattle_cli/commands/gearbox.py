@@ -48,6 +48,10 @@ def add_parser(sub) -> None:
                    help="unrecorded excitation periods per point (default 200)")
     p.add_argument("--record", type=int, default=100,
                    help="recorded periods per point, at least enough for the sound (default 100)")
+    p.add_argument("--runs", type=int, default=8,
+                   help="independent runs behind the rates and 95 %% intervals of points whose "
+                        "motion does not repeat (default 8; 0: one run, intervals from blocks of "
+                        "its window)")
     p.add_argument("--no-cache", dest="no_cache", action="store_true",
                    help="recompute even when the disk cache holds this verdict, and do not store it")
 
@@ -69,7 +73,8 @@ def run(args: argparse.Namespace) -> int:
     bar = Progress("gearbox", enabled=not args.quiet, unit="point")
     try:
         result = cached_verdict(gearbox, args.rpm, transient=args.transient, record=args.record,
-                                progress=bar, use_cache=not args.no_cache)
+                                progress=bar, use_cache=not args.no_cache,
+                                ensemble_runs=args.runs)
     finally:
         bar.close()
     write_table(result.table, out)
