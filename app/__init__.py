@@ -18,6 +18,7 @@ How a session is built (``app.main.create_app`` → :class:`app.dashboard.Dashbo
         continuation.ContinuationView  "Continue this orbit": the branch and its multipliers
         sound.SoundView                rattle sound card
         maps.MapsView                  Maps tab (background maps)
+        gearbox.GearboxView            Gearbox tab: a measurement to a verdict (background)
     work/    jobs.JobPool and tasks.py: background work in killable worker processes, with
              time limits; branch.py, diagram_data.py: what the continuation and the diagram
              compute and load; threads.py: the plot lock and later() for stream callbacks

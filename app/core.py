@@ -10,7 +10,9 @@ from __future__ import annotations
 from functools import partial
 
 from rattle_core import units
-from rattle_core.analysis.continuation import (CONTINUATION_VERSION, ContinuationResult,
+from rattle_core.analysis.continuation import (ATLAS_AXES, CONTINUATION_VERSION,
+                                                ContinuationError, ContinuationResult, atlas,
+                                                axes_supported, continue_bifurcation,
                                                 continue_orbit, find_orbit)
 from rattle_core.analysis.overlays import contact_boundary
 from rattle_core.analysis.statistics import batch_means
@@ -19,8 +21,8 @@ from rattle_core.batch.ensemble import noise_sensitivity
 from rattle_core.analysis.sound import (DEFAULT_EXCITATION_HZ, DEFAULT_MODES,
                                         DEFAULT_SAMPLE_RATE, DEFAULT_TAIL, EXCITATION_HZ_RANGE,
                                         HousingMode, parse_modes, synthesize, write_wav)
-from rattle_core.analysis.vocabulary import (REGIME_CODES, REGIME_COLOURS, REGIME_MEANING,
-                                             physical_table)
+from rattle_core.analysis.vocabulary import (CODIM2_MARKERS, CURVE_STYLES, REGIME_CODES,
+                                             REGIME_COLOURS, REGIME_MEANING, physical_table)
 from rattle_core.batch.plan import PHYSICAL_AXES as MAP_PHYSICAL_AXES
 from rattle_core.batch.plan import plan_map, point_params
 from rattle_core.model.excitation import TWO_PI, excitation
@@ -36,6 +38,16 @@ from rattle_core.store.files import atomic_savez
 from rattle_core.store.exports import impacts_frame
 from rattle_core.store.requests import run_map
 from rattle_core.solver.trajectory import SOLVER_VERSION
+from rattle_core.analysis.loudness import SAMPLE_RATE as LOUDNESS_RATE
+from rattle_core.analysis.loudness import loudness
+from rattle_core.analysis.sound import render, normalize
+from rattle_core.batch.gearbox import GEARBOX
+from rattle_core.batch.gearbox import check_rpm as check_verdict_rpm
+from rattle_core.model.gearbox import (DEFAULT_DURATION_S, DEFAULT_TRANSFER_PA_PER_NS,
+                                       Excitation, Gear, Gearbox)
+from rattle_core.model.orders import SAMPLE_RUNUP, OrderMap
+from rattle_core.paper.drawing import orders_png, verdict_png
+from rattle_core.store.verdicts import cached_verdict
 
 #: Regime letter → meaning, for the letters a classification gives.
 REGIMES = {k: v for k, v in REGIME_MEANING.items() if k != "error"}
@@ -56,4 +68,9 @@ __all__ = [
     "DEFAULT_SAMPLE_RATE", "DEFAULT_TAIL", "EXCITATION_HZ_RANGE", "HousingMode", "parse_modes",
     "synthesize", "write_wav", "physical_table", "impacts_frame", "batch_means",
     "NOISE_DEFAULT", "NOISE_RANGE", "NOISE_LEVELS", "noise_sensitivity",
+    "ATLAS_AXES", "ContinuationError", "atlas", "axes_supported", "continue_bifurcation",
+    "CODIM2_MARKERS", "CURVE_STYLES",
+    "LOUDNESS_RATE", "loudness", "render", "normalize", "GEARBOX", "DEFAULT_DURATION_S",
+    "DEFAULT_TRANSFER_PA_PER_NS", "Excitation", "Gear", "Gearbox", "SAMPLE_RUNUP", "OrderMap",
+    "orders_png", "verdict_png", "cached_verdict", "check_verdict_rpm",
 ]

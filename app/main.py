@@ -20,21 +20,26 @@ Also a Panel script: ``panel serve app/main.py`` builds one dashboard per sessio
 """
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
+import signal
 import socket
 import sys
 import threading
 import time
+from typing import Iterator
 
 import panel as pn
 
 if __package__ in (None, ""):  # run as a script by `panel serve app/main.py`
     sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    from app import query
     from app.views import maps as maps_view
     from app.work import jobs, tasks
     from app.dashboard import Dashboard
 else:  # imported as a package: `app` in a checkout, `rattle_app` when installed
+    from . import query
     from .views import maps as maps_view
     from .work import jobs, tasks
     from .dashboard import Dashboard
@@ -89,6 +94,7 @@ def configure() -> None:
     pn.config.inline = False
     hv.extension("bokeh", logo=False)
     _recompute_only_when_needed()
+    query.install()
 
 
 def warm_up(pool: bool = True) -> None:
@@ -139,6 +145,45 @@ def _answers(address: str, port: int) -> bool:
         return False
 
 
+@contextlib.contextmanager
+def _no_sigint() -> Iterator[None]:
+    """SIGINT held back in this thread, and blocked for good in the processes it starts.
+
+    Ctrl-C in a terminal signals the whole process group; the server stops its workers
+    itself, so they must not die half-way with a traceback of their own.  An interrupt held
+    back here arrives once the block ends, where the server is ready to stop cleanly.
+    """
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+
+
+@contextlib.contextmanager
+def _sigint_ignored() -> Iterator[None]:
+    """SIGINT ignored while Dask starts its worker processes, which keep ignoring it.
+
+    Dask starts them from threads of its own, so :func:`_no_sigint`'s mask does not reach
+    them; an ignored signal does.  A Ctrl-C in these few seconds is lost, not half-handled.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+def _stop(server) -> None:
+    try:
+        server.stop()
+    except RuntimeError:  # already stopping
+        server.join(10)
+
+
 def serve(port: int = 5006, address: str = "localhost", show: bool = False,
           scheduler: str | None = None, dask: str | None = None, threaded: bool = False,
           quiet: bool = False, **kwargs):
@@ -152,39 +197,51 @@ def serve(port: int = 5006, address: str = "localhost", show: bool = False,
         raise ValueError("give scheduler or dask='local', not both")
     if dask not in (None, "local"):
         raise ValueError(f"dask = {dask!r}; the only value is 'local'")
-    if dask == "local":
-        from dask.distributed import LocalCluster
-        cluster = LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None)
-        scheduler = cluster.scheduler_address
-    maps_view.set_scheduler(scheduler or "")
-    configure()
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
-    log.info("warming up (compiled kernels, shipped diagrams, worker processes)…")
-    warm_up()
-    origins = kwargs.pop("websocket_origin", None) or [f"{address}:{port}", f"localhost:{port}",
-                                                       f"127.0.0.1:{port}"]
-    kwargs.setdefault("check_unused_sessions", UNUSED_SESSION_S * 1000)
-    kwargs.setdefault("unused_session_lifetime", UNUSED_SESSION_S * 1000)
-    server = pn.serve(create_app, port=port, address=address, show=show, title="Rattle Explorer",
-                      websocket_origin=origins, liveness=True, threaded=True, **kwargs)
-    deadline = time.monotonic() + 60
-    while not _answers(address, port):
-        if time.monotonic() > deadline:
-            raise RuntimeError(f"the dashboard did not start answering on port {port}")
-        time.sleep(0.05)
-    if not quiet:
-        print(f"serving Rattle Explorer on http://{address}:{port}/ (Ctrl+C stops)", flush=True)
-        if scheduler:
-            print(f"2-D maps run on Dask: {scheduler}", flush=True)
-    if threaded:
+    with contextlib.ExitStack() as stack:
+        if dask == "local":
+            from dask.distributed import LocalCluster
+            with _sigint_ignored():
+                cluster = LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None)
+            if not threaded:  # a server that returns keeps its cluster; one that ends closes it
+                stack.callback(cluster.close)
+            scheduler = cluster.scheduler_address
+        maps_view.set_scheduler(scheduler or "")
+        configure()
+        logging.basicConfig(level=logging.INFO,
+                            format="%(asctime)s %(name)s %(levelname)s %(message)s")
+        log.info("warming up (compiled kernels, shipped diagrams, worker processes)…")
+        with _no_sigint():
+            jobs.pool(warm=tasks.warm_up)
+        warm_up()
+        origins = kwargs.pop("websocket_origin", None) or [f"{address}:{port}", f"localhost:{port}",
+                                                           f"127.0.0.1:{port}"]
+        kwargs.setdefault("check_unused_sessions", UNUSED_SESSION_S * 1000)
+        kwargs.setdefault("unused_session_lifetime", UNUSED_SESSION_S * 1000)
+        server = None
+        try:
+            with _no_sigint():  # held back until the server's thread is known, to be stopped
+                server = pn.serve(create_app, port=port, address=address, show=show,
+                                  title="Rattle Explorer", websocket_origin=origins,
+                                  liveness=True, threaded=True, **kwargs)
+            deadline = time.monotonic() + 60
+            while not _answers(address, port):
+                if time.monotonic() > deadline:
+                    raise RuntimeError(f"the dashboard did not start answering on port {port}")
+                time.sleep(0.05)
+            if not quiet:
+                print(f"serving Rattle Explorer on http://{address}:{port}/ (Ctrl+C stops)",
+                      flush=True)
+                if scheduler:
+                    print(f"2-D maps run on Dask: {scheduler}", flush=True)
+            if threaded:
+                return server
+            while server.is_alive():
+                server.join(0.5)
+        except BaseException:
+            if server is not None:
+                _stop(server)
+            raise
         return server
-    try:
-        while server.is_alive():
-            server.join(0.5)
-    except KeyboardInterrupt:
-        server.stop()
-        raise
-    return server
 
 
 if __name__ == "__main__":

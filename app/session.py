@@ -37,6 +37,7 @@ from .work import jobs as jobs_module
 from .state import (PHYSICAL_KEYS, RUN_KEYS, URL_KEYS, ExplorerState, Run, rattle_params,
                              rejection)
 from .physical import LinkError, link, run_physical
+from .query import readable
 from .work.threads import HV_LOCK
 
 log = logging.getLogger(__name__)
@@ -254,8 +255,15 @@ class Session:
             if rejected:
                 location.update_query(**{URL_KEYS[n]: _serialize(s, n) for n in rejected})
 
+        clean, unreadable = readable(location.search)
+        if unreadable:  # before Panel reads the link: such a value would fail the whole page
+            location.search = clean
         link = location.search
         self._check_query(link)
+        for key, why in unreadable.items():
+            name = {v: k for k, v in URL_KEYS.items()}.get(key, "url")
+            from .ui.labels import short
+            s.say(name, f"URL: the value of {short(key)} cannot be read ({why}); ignored.")
         location.sync(s, URL_KEYS, on_error=on_error)
         # the URL shows the state in force: rejected and reverted values corrected, unknown
         # keys dropped
@@ -273,7 +281,7 @@ class Session:
 
     def _show_state_in_url(self, search: str) -> None:
         """Correct URL keys whose value is not the one in force (refused, or put back)."""
-        from panel.util import parse_query
+        from .query import parse_query
         s, query, fix = self.state, parse_query(search or ""), {}
         for name, key in URL_KEYS.items():
             if key in query:
@@ -293,7 +301,7 @@ class Session:
 
     def _physical_wins(self, search: str) -> None:
         """A link holding physical inputs: they decide Λ, j, h₂, φ₂ while the mode is on."""
-        from panel.util import parse_query
+        from .query import parse_query
         s, query = self.state, parse_query(search or "")
         if not any(URL_KEYS[n] in query for n in PHYSICAL_KEYS):
             return
@@ -328,7 +336,7 @@ class Session:
                             f"{', '.join(short(k) for k in unknown[:5])} ignored.")
         for key, value in pairs:
             name = names.get(key)
-            if name is not None and value == "" and name not in ("x0", "cont_from") and getattr(s, name) != "":
+            if name is not None and value == "" and name not in ("x0", "cont_from", "curve_at") and getattr(s, name) != "":
                 s.say(name, f"URL: {s.param[name].label} is empty. Kept {_serialize(s, name)}.")
 
     # ----- teardown -----------------------------------------------------------------------------

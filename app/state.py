@@ -190,6 +190,16 @@ class ExplorerState(Said):
     cont_from = OptionalNumber(None, allow_None=True, bounds=(-1e6, 1e6), label="continued from",
                                doc="the diagram parameter's value (axis units) where the continued "
                                    "orbit was found (empty: the current value)")
+    # ----- bifurcation curves ------------------------------------------------------------------
+    atlas = Flag(False, label="atlas", doc="the exact bifurcation curves drawn over the map")
+    curve_kind = param.Selector(default="", objects=["", "fold", "period_doubling", "grazing",
+                                                     "stick_onset"], label="curve of",
+                                doc="the kind of the branch's bifurcation whose curve is traced")
+    curve_at = OptionalNumber(None, allow_None=True, bounds=(-1e6, 1e6), label="curve from",
+                              doc="where that bifurcation is (the diagram's units)")
+    curve_param2 = param.Selector(default="r", objects=["lam", "r", "j", "h2", "phi2"],
+                                  label="second parameter",
+                                  doc="the parameter the bifurcation's curve is traced in")
     # ----- computed, never in the URL ----------------------------------------------------------
     result = param.Parameter(None, precedence=-1, doc="the last good Run")
     branch = param.Parameter(None, precedence=-1, doc="the continued branch shown (app.branch.Branch)")
@@ -226,11 +236,32 @@ class MapSettings(Said):
     field = param.Selector(default="regime", objects=MAP_FIELDS, label="shown")
 
 
+class GearboxSettings(Said):
+    """The Gearbox tab's request: the excitation's orders, the speeds, the sound's level, the
+    run's periods, and the what-if variant, with bounds."""
+
+    engine_order = param.Number(2.0, bounds=(0.5, 50.0), label="engine order of the fundamental")
+    harmonics = param.Integer(3, bounds=(1, 6), label="harmonics")
+    rpm_step = param.Number(100.0, bounds=(10.0, 1000.0), label="rpm bins of the order analysis")
+    rpm_start = param.Number(1000.0, bounds=(1.0, 1e5), label="rpm from")
+    rpm_stop = param.Number(3000.0, bounds=(1.0, 1e5), label="rpm to")
+    rpm_num = param.Integer(21, bounds=(2, 200), label="speeds")
+    transfer = param.Number(5.0, bounds=(1e-3, 1e4), label="Pa per N·s")
+    transient = param.Integer(200, bounds=(10, 5000), label="transient periods")
+    record = param.Integer(100, bounds=(10, 5000), label="recorded periods")
+    variant = param.Selector(default="none", objects=["none", "drag", "backlash"],
+                             label="what-if variant")
+    drag_pct = param.Number(20.0, bounds=(-90.0, 500.0), label="drag change [%]")
+    backlash_change_um = param.Number(-10.0, bounds=(-1000.0, 1000.0), label="backlash change [µm]")
+    listen_rpm = param.Number(2000.0, bounds=(1.0, 1e5), label="listen at [rpm]")
+
+
 #: State parameters → URL query keys.
 URL_KEYS = {n: n for n in ExplorerState.param if n not in ("name", "result", "messages", "branch")}
 URL_KEYS.update(inertia="J", radius="Rb", drag_torque="C", backlash_um="b_um", backlash_unit="b_unit",
                 excitation="exc", amp1="a1", amp2="a2", phase2="p2", solve_for="solve",
-                continuation="cont")
+                continuation="cont", curve_kind="curve", curve_at="curve_at",
+                curve_param2="curve_in")
 #: Parameters that change the trajectory.
 RUN_KEYS = ("lam", "r", "j", "h2", "phi2", "phases", "harmonics", "v_stick", "noise", "periods",
             "transient",
@@ -275,10 +306,10 @@ def rejection(state: param.Parameterized, name: str, value: Any, reason: str = "
         whole = "a whole number" if isinstance(p, param.Integer) else "a number"
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             what = f"{label} must be {whole}, got {_show(value)}"
+        elif not math.isfinite(value):  # before int(), which refuses NaN and infinities
+            what = f"{label} must be finite, got {value!r}"
         elif isinstance(p, param.Integer) and value != int(value):
             what = f"{label} = {value!r} must be {whole}"
-        elif not math.isfinite(value):
-            what = f"{label} must be finite, got {value!r}"
         else:
             shown = int(value) if isinstance(p, param.Integer) else float(value)
             what = f"{label} = {shown!r} is outside the allowed range"

@@ -97,6 +97,19 @@ def check_output(path_text: str, suffixes: Sequence[str], option: str) -> Path:
     return path
 
 
+def distinct_outputs(*paths: Path | None) -> None:
+    """Refuse two outputs of one command that are the same file (one would overwrite the other)."""
+    seen: dict[Path, Path] = {}
+    for p in paths:
+        if p is None:
+            continue
+        key = p.resolve()
+        if key in seen:
+            raise CLIError(f"{str(seen[key])!r} and {str(p)!r} are the same file; give each "
+                           "output its own name")
+        seen[key] = p
+
+
 def check_output_dir(path_text: str, option: str) -> Path:
     """An output directory, checked before any work: not empty, not a file, and writable (it
     may be new, inside a directory that exists)."""

@@ -12,9 +12,7 @@ import sys
 import threading
 from typing import Any, Callable, Sequence
 
-from rattle_core import SolverError
-
-from .commands import COMMANDS
+# nothing heavy at import: the libraries load inside main(), where a Ctrl-C is handled
 from .common import CLIError, Parser
 
 PROG = "rattle"
@@ -40,6 +38,7 @@ Exit status: 0 success, 1 the run stopped at a solver limit or could not write, 
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``rattle`` argument parser (all subcommands)."""
+    from .commands import COMMANDS
     parser = Parser(prog=PROG, formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG,
                     description="Rattle Explorer: exact gear-rattle (vibro-impact idle gear) "
                                 "dynamics from the command line.")
@@ -58,6 +57,18 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _one_line(text: object) -> str:
     return " ".join(str(text).split())
+
+
+def _end_children() -> None:
+    """Kill the worker processes this command started (a ``--dask local`` cluster's): exiting
+    at once, it would leave them to find their scheduler gone and say so at length."""
+    import multiprocessing
+
+    children = multiprocessing.active_children()
+    for child in children:
+        child.kill()
+    for child in children:
+        child.join(2.0)
 
 
 def _interruptible(func: Callable[[Any], int], args: argparse.Namespace) -> int:
@@ -86,6 +97,7 @@ def _interruptible(func: Callable[[Any], int], args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         print(f"\n{PROG}: interrupted", file=sys.stderr, flush=True)
         sys.stdout.flush()
+        _end_children()
         os._exit(130)
     if "error" in outcome:
         raise outcome["error"]
@@ -106,9 +118,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         0 on success, 1 when a run stopped at a solver limit or a file could not be written,
         2 for bad arguments, 130 when interrupted.
     """
-    parser = build_parser()
     try:
+        parser = build_parser()
         args = parser.parse_args(argv)
+        if args.command in ("sweep", "serve", "cache"):  # they use the disk cache
+            from rattle_core.store.cache import size_limit
+            size_limit()
         if args.command == "serve":  # the server handles Ctrl-C itself, on the main thread
             return int(args.func(args) or 0)
         return int(_interruptible(args.func, args) or 0)
@@ -117,13 +132,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (CLIError, ValueError) as exc:
         print(f"{PROG}: error: {_one_line(exc)}", file=sys.stderr)
         return 2
-    except (SolverError, OSError) as exc:
+    except OSError as exc:
         print(f"{PROG}: error: {_one_line(exc)}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130
     except Exception as exc:  # a bug: still one line, with a way to see the traceback
+        from rattle_core import SolverError
+        if isinstance(exc, SolverError):
+            print(f"{PROG}: error: {_one_line(exc)}", file=sys.stderr)
+            return 1
         if os.environ.get("RATTLE_DEBUG"):
             raise
         print(f"{PROG}: internal error: {type(exc).__name__}: {_one_line(exc)} "

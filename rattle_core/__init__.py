@@ -3,11 +3,11 @@
 Layers, each importing only those listed before it (``docs/model.md`` is the specification;
 ``tests/test_layers.py`` enforces the order)::
 
-    model     params, excitation, phases, units, engine, orders
+    model     params, excitation, phases, units, engine, orders, gearbox
     solver    events, kernel, trajectory
-    analysis  sections, classify, overlays, vocabulary, sound, continuation
-    batch     chunks, executor, sweep, maps, plan
-    store     files, cache, assets, requests, exports
+    analysis  sections, classify, overlays, vocabulary, sound, loudness, continuation
+    batch     chunks, executor, sweep, maps, plan, gearbox
+    store     files, cache, assets, requests, exports, verdicts
     paper     cases, figures, evidence, drawing
 
 The names below are the public entry points, importable from ``rattle_core`` itself.

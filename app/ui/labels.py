@@ -229,3 +229,26 @@ def map_legend(r: Any) -> str:
     rows = [f"<div class='map-regime' data-regime='{k}'>{swatch(REGIME_COLOR[k])}<b>{k}</b> "
             f"{REGIME_MEANING[k]} ({int((reg == c).sum())})</div>" for k, c in REGIME_CODES.items()]
     return "<div><b>Regimes</b> (points)</div>" + "".join(rows)
+
+
+#: Regime names short enough for a legend inside a plot.
+REGIME_SHORT = {"A": "permanent contact", "B": "impacts, then contact", "C": "one impact per period",
+                "D": "chaotic", "E": "one impact per flank", "P": "periodic", "Q": "non-repeating",
+                "error": "solver limit"}
+
+
+def map_key(r: Any, field: str) -> list[tuple[str, str]]:
+    """The colour key drawn inside a map's figure: ``(label, colour)`` of each regime (or
+    attractor) present; none for a field with a colour bar."""
+    if r is None:
+        return []
+    if field not in r.fields:  # as the map's image does
+        field = "attractor" if r.kind == "basin" else "regime"
+    if field == "attractor":
+        from bokeh.palettes import Category20
+        return [(f"{i}: {a['regime']}" + (f", period {a['period']}" if a["period"] else ""),
+                 Category20[20][i % 20]) for i, a in enumerate(r.attractors[:20])]
+    if field != "regime":
+        return []
+    reg = np.asarray(r.fields["regime"])
+    return [(f"{k} {REGIME_SHORT[k]}", REGIME_COLOR[k]) for k, c in REGIME_CODES.items() if (reg == c).any()]

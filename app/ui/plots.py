@@ -59,15 +59,46 @@ def file_stem(run: Any, what: str) -> str:
     return "".join(c if c.isalnum() or c in "._-" else "_" for c in stem)
 
 
+def name_saved_png(fig: Any, stem: str) -> None:
+    """Give ``fig``'s save tool the file name ``stem.png``.
+
+    The extension is written out: the browser adds none to a name that holds a dot already
+    (``lam3.3``), and the file would open as nothing.
+    """
+    from bokeh.models import SaveTool
+    name = stem + ".png"
+    for tool in fig.toolbar.tools:
+        if isinstance(tool, SaveTool) and tool.filename != name:
+            tool.filename = name
+
+
 def save_as(get_stem: Callable[[], str]) -> Callable:
-    """A HoloViews hook giving the plot's save tool the file name ``get_stem()``."""
+    """A HoloViews hook naming the plot's saved PNG ``get_stem()`` (see :func:`name_saved_png`)."""
     def hook(plot, element) -> None:
-        from bokeh.models import SaveTool
-        stem = get_stem()
-        for tool in plot.state.toolbar.tools:
-            if isinstance(tool, SaveTool) and tool.filename != stem:
-                tool.filename = stem
+        name_saved_png(plot.state, get_stem())
     return hook
+
+
+def key_legend(fig: Any, entries: list[tuple[str, str]], name: str = "key") -> None:
+    """A legend of coloured squares, ``(label, colour)`` each, to the right of ``fig``.
+
+    A key drawn in the figure is part of every PNG saved from it, unlike one beside it on
+    the page. The legend is rebuilt only when the entries change.
+    """
+    from bokeh.models import Legend, LegendItem
+    tag = repr(entries)
+    legend = next((m for m in fig.right if isinstance(m, Legend) and m.name == name), None)
+    if legend is not None and legend.tags == [tag]:
+        return
+    fig.renderers = [r for r in fig.renderers if r.name != name]
+    items = [LegendItem(label=label, renderers=[fig.scatter(x=[], y=[], marker="square", size=11,
+                                                            color=colour, name=name)])
+             for label, colour in entries]
+    if legend is None:
+        legend = Legend(name=name, label_text_font_size="8pt", glyph_width=12, glyph_height=12,
+                        spacing=1, padding=4, margin=4, border_line_alpha=0.3)
+        fig.add_layout(legend, "right")
+    legend.update(items=items, tags=[tag], visible=bool(entries))
 
 
 class HoloViewsPane(pn.pane.HoloViews):

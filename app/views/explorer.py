@@ -60,12 +60,14 @@ class SectionView(pn.viewable.Viewer):
         self.dense = hv.DynamicMap(self._raster, streams=[hv.streams.Params(self, ["dense_revision"]),
                                                           self.range])
         self.range.add_subscriber(self.zoom._ranged, precedence=-1)
-        hv.streams.PlotReset(source=self.sparse).add_subscriber(self.zoom._reset)
-        self.tap = hv.streams.Tap(source=self.sparse)
-        self.tap.add_subscriber(self._on_tap)
         plot = (self.dense * self.sparse).opts(
             hv.opts.Overlay(responsive=True, height=380, hooks=[weak_hook(self._name_plot)]),
             hv.opts.Points(tools=[*TOOLS, "tap"], active_tools=["wheel_zoom"]))
+        # HoloViews links a stream to the figure through the overlay's first layer (a source
+        # on the glyph layer, whose output is an overlay, is never linked: clicks were lost)
+        hv.streams.PlotReset(source=self.dense).add_subscriber(self.zoom._reset)
+        self.tap = hv.streams.Tap(source=self.dense)
+        self.tap.add_subscriber(self._on_tap)
         self.mode = Choice(self.state, "section", SECTION_OPTIONS, sizing_mode="stretch_width")
         self.msg = message(self.state, "start")
         self.pane = HoloViewsPane(plot, sizing_mode="stretch_width", min_height=380,
@@ -90,6 +92,7 @@ class SectionView(pn.viewable.Viewer):
         x, y, xl, yl = section_points(run.tr, section)
         self._kdims = [hv.Dimension("x", label=xl), hv.Dimension("y", label=yl)]
         self._lims = (padded(x), padded(y))
+        self.zoom.user = False  # a new run frames its data; a zoom holds only while it stays
         theta = f"θ = {self.state.strobe:g}°"
         title = {"absolute": f"Poincaré map (x, ẋ) at {theta}",
                  "relative": f"Relative Poincaré map at {theta}",
@@ -131,6 +134,13 @@ class SectionView(pn.viewable.Viewer):
     def _name_plot(self, plot: Any, element: Any) -> None:
         """Title (the parameters, so a saved PNG carries them) and the save tool's file name."""
         plot.state.name = "section"
+        if not self.zoom.user:
+            # HoloViews keeps an overlay's first ranges when its layers' limits change
+            # (and Bokeh's reset tool returns to the ranges a figure was built with)
+            fig, ((x0, x1), (y0, y1)) = plot.state, self._lims
+            if (fig.x_range.start, fig.x_range.end, fig.y_range.start, fig.y_range.end) != (x0, x1, y0, y1):
+                fig.x_range.update(start=x0, end=x1, reset_start=x0, reset_end=x1)
+                fig.y_range.update(start=y0, end=y1, reset_start=y0, reset_end=y1)
         if plot.state.title.text != self._title:
             plot.state.title.text = self._title
             plot.state.title.text_font_size = "9pt"

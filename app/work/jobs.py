@@ -26,6 +26,7 @@ import itertools
 import logging
 import multiprocessing as mp
 import multiprocessing.util  # noqa: F401  (its exit handler first, so ours runs before it)
+import signal
 import threading
 import time
 import weakref
@@ -122,7 +123,13 @@ class _Worker:
         self.flag = _CTX.Event()
         self.process = _CTX.Process(target=_worker_main, args=(child, self.flag, pool.warm),
                                     daemon=True, name="rattle-worker")
-        self.process.start()
+        # Ctrl-C in a terminal signals the whole process group; a worker is stopped by the
+        # server, never by that, so it starts (and stays) with SIGINT blocked
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            self.process.start()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         child.close()
         self.job: Job | None = None
         self.dead = False

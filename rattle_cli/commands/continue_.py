@@ -17,7 +17,8 @@ from rattle_core.analysis import continuation as cont
 from rattle_core.paper.drawing import continuation_png
 from rattle_core.store.exports import TABLE_SUFFIXES, write_table
 
-from ..common import CLIError, Progress, add_command, axis_label, check_output, info, label, meta
+from ..common import (CLIError, Progress, add_command, axis_label, check_output,
+                      distinct_outputs, info, label, meta)
 from ..options import add_model_options, build_params
 
 PARAM_CHOICES = "lam, r, j, hK (H_K/H1), phiK (degrees), rpm or drag_torque (physical units)"
@@ -70,9 +71,20 @@ def run(args: argparse.Namespace) -> int:
     import pandas as pd
 
     out = check_output(args.out, TABLE_SUFFIXES, "--out")
+    imp_path, bif_path = (check_output(str(out.with_name(out.stem + tail + out.suffix)),
+                                       TABLE_SUFFIXES, f"the {tail[1:]} table beside --out")
+                          for tail in ("_impacts", "_bifurcations"))
     png = check_output(args.png, (".png",), "--png") if args.png else None
+    distinct_outputs(out, imp_path, bif_path, png)
     if not 1 <= args.branches <= 100:
         raise CLIError(f"--branches {args.branches} is outside the allowed range [1, 100]")
+    if not 0 < args.ds <= 1:
+        raise CLIError(f"--ds {args.ds!r} is outside the allowed range (0, 1]")
+    if not args.ds <= args.ds_max <= 10:
+        raise CLIError(f"--ds-max {args.ds_max!r} is outside the allowed range [--ds = {args.ds:g}, 10]")
+    if not 1 <= args.max_points <= cont.MAX_POINTS:
+        raise CLIError(f"--max-points {args.max_points} is outside the allowed range "
+                       f"[1, {cont.MAX_POINTS}]")
     params, phys = build_params(args)
     if args.param in ("rpm", "drag_torque") and phys is None:
         raise CLIError(f"--param {args.param} needs physical units (--inertia, --radius, "
@@ -87,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
         if len(bounds) != 2:
             raise CLIError(f"--bounds {args.bounds!r}: give two numbers LO,HI")
     kw = dict(bounds=bounds, direction=1 if args.direction == "up" else -1, ds=args.ds,
-              ds_max=max(args.ds_max, args.ds), max_points=args.max_points,
+              ds_max=args.ds_max, max_points=args.max_points,
               physical=phys if args.param in ("rpm", "drag_torque") else None)
     try:
         if args.start_from == "simulate":
@@ -133,8 +145,6 @@ def run(args: argparse.Namespace) -> int:
         df.insert(0, "branch", df.pop("branch"))
     file_meta = meta(params, phys)
     file_meta.update(param=args.param, provenance=[r.provenance for r in results])
-    imp_path = out.with_name(out.stem + "_impacts" + out.suffix)
-    bif_path = out.with_name(out.stem + "_bifurcations" + out.suffix)
     write_table(points, out, file_meta)
     write_table(impacts, imp_path, file_meta)
     write_table(bifs, bif_path, file_meta)

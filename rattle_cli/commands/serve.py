@@ -2,8 +2,52 @@
 from __future__ import annotations
 
 import argparse
+import ipaddress
+import re
+import socket
+import threading
 
 from ..common import CLIError, add_command, info
+
+#: Seconds a host name may take to resolve before ``--address`` is refused.
+RESOLVE_S = 5.0
+_HOST_RE = re.compile(r"^(?=.{1,253}$)([A-Za-z0-9]([A-Za-z0-9-]{0,61}[A-Za-z0-9])?)"
+                      r"(\.[A-Za-z0-9]([A-Za-z0-9-]{0,61}[A-Za-z0-9])?)*\.?$")
+
+
+def check_listen(address: str, port: int) -> None:
+    """Refuse, in one line and before any start-up work, an address this server cannot listen on:
+    not an IP address or host name, a name that does not resolve within :data:`RESOLVE_S`, or
+    an address and port it cannot bind (not this machine's, or taken)."""
+    text = address.strip()
+    if re.fullmatch(r"[0-9.]+", text) or ":" in text:
+        try:
+            ipaddress.ip_address(text)
+        except ValueError:
+            raise CLIError(f"--address {address!r} is not an IP address") from None
+    elif not _HOST_RE.match(text):
+        raise CLIError(f"--address {address!r} is not an IP address or a host name")
+    found: dict = {}
+
+    def resolve() -> None:
+        try:
+            found["infos"] = socket.getaddrinfo(text, port, type=socket.SOCK_STREAM)
+        except OSError as exc:
+            found["error"] = exc
+    worker = threading.Thread(target=resolve, daemon=True)
+    worker.start()
+    worker.join(RESOLVE_S)
+    if "infos" not in found:
+        why = found.get("error") or f"no answer within {RESOLVE_S:g} s"
+        raise CLIError(f"--address {address!r} does not resolve ({why})")
+    family, kind, proto, _, where = found["infos"][0]
+    try:
+        with socket.socket(family, kind, proto) as s:
+            s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            s.bind(where)
+    except OSError as exc:
+        raise CLIError(f"--address {address!r} --port {port}: cannot listen there "
+                       f"({exc.strerror or exc})") from None
 
 HELP = "serve the Panel dashboard"
 
@@ -28,6 +72,7 @@ def run(args: argparse.Namespace) -> int:
         raise CLIError(f"--port {args.port} is outside the allowed range [1, 65535]")
     if args.scheduler is not None and args.dask is not None:
         raise CLIError("give --dask local or --scheduler ADDRESS, not both")
+    check_listen(args.address, args.port)
     kwargs = {"port": args.port, "address": args.address, "show": args.show, "quiet": args.quiet}
     if args.scheduler is not None:
         if "://" not in args.scheduler or not args.scheduler.split("://", 1)[1]:

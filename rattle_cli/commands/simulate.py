@@ -6,7 +6,8 @@ import argparse
 from rattle_core import classify, simulate, statistics
 from rattle_core.store.exports import TABLE_SUFFIXES, history_frame, impacts_frame, write_table
 
-from ..common import CLIError, add_command, check_output, info, label, meta, run_parent
+from ..common import (CLIError, add_command, check_output, distinct_outputs, info, label, meta,
+                      run_parent)
 from ..options import add_model_options, build_params
 
 HELP = "one run: impacts and time history to CSV or Parquet"
@@ -42,6 +43,7 @@ def run(args: argparse.Namespace) -> int:
         raise CLIError(f"--runs {args.runs} is outside the allowed range [2, 1000]")
     imp_path = check_output(args.impacts, TABLE_SUFFIXES, "--impacts") if args.impacts is not None else None
     hist_path = check_output(args.history, TABLE_SUFFIXES, "--history") if args.history is not None else None
+    distinct_outputs(imp_path, hist_path)
     if not 1 <= args.samples_per_period <= 100_000:
         raise CLIError(f"--samples-per-period {args.samples_per_period} is outside the allowed "
                        "range [1, 100000]")

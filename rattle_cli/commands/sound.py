@@ -6,6 +6,8 @@ import argparse
 from rattle_core import simulate
 from rattle_core.analysis import sound
 
+from rattle_core.model.params import check_range
+
 from ..common import CLIError, add_command, check_output, info, label, run_parent
 from ..options import add_model_options, build_params
 
@@ -38,6 +40,16 @@ def run(args: argparse.Namespace) -> int:
         raise CLIError("--excitation-hz is for dimensionless runs; in physical units the engine "
                        "speed (--rpm, --order) sets the time scale")
     modes = sound.parse_modes(args.modes) if args.modes is not None else None
+    # the rate, the length and the sample count are known before the run: check them first
+    rate = sound.check_sample_rate(args.rate)
+    tail = check_range("--tail", args.tail, 0.0, 10.0)
+    if phys is not None:
+        freq = phys.frequency_hz
+    else:
+        freq = check_range("--excitation-hz", sound.DEFAULT_EXCITATION_HZ if args.excitation_hz
+                           is None else args.excitation_hz, *sound.EXCITATION_HZ_RANGE, lo_open=True)
+    if args.periods >= 1:
+        sound.check_length(args.periods / freq + tail, rate)
     tr = simulate(params, periods=args.periods, transient=args.transient, x0=args.x0, v0=args.v0)
     signal, rate = sound.synthesize(tr, sample_rate=args.rate, excitation_hz=args.excitation_hz,
                                     physical=phys, modes=modes, tail=args.tail,

@@ -13,6 +13,8 @@ from rattle_core.analysis.vocabulary import LETTERS
 from rattle_core.batch.executor import dask_session
 from rattle_core.batch.plan import plan_map
 from rattle_core.batch.sweep import check_budget, sweep, validate_sweep_args
+from rattle_core.model.gearbox import Excitation
+from rattle_core.model.orders import OrderMap
 from rattle_core.model.units import rpm_sweep
 from rattle_core.paper.drawing import map_png, sweep_png
 from rattle_core.store.cache import cached_sweep
@@ -20,8 +22,8 @@ from rattle_core.store.exports import TABLE_SUFFIXES, sweep_frames, write_table
 from rattle_core.store.files import save_map, save_result
 from rattle_core.store.requests import run_map
 
-from ..common import (CLIError, Progress, add_command, axis_label, check_output, finite, info,
-                      label, user_permissions)
+from ..common import (CLIError, Progress, add_command, axis_label, check_output,
+                      distinct_outputs, finite, info, label, user_permissions)
 from ..options import add_model_options, build_params, float_list
 
 HELP = "bifurcation diagram (impulses against a parameter) to a file plus PNG"
@@ -64,6 +66,14 @@ def add_parser(sub) -> None:
     m.add_argument("--num2", type=int, help="number of --param2 values (default 100)")
     m.add_argument("--values2", type=float_list("--values2"), metavar="V[,V...]",
                    help="explicit --param2 values")
+    s.add_argument("--orders-from", dest="orders_from", metavar="FILE.csv",
+                   help="physical units: take the harmonics at each engine speed from a measurement "
+                        "(time_s, speed_rpm) or an order table (rattle orders): harmonic n is engine "
+                        "order n × --order, its θ and φ interpolated at each rpm; the --theta-amp "
+                        "values are replaced")
+    s.add_argument("--orders-harmonics", dest="orders_harmonics", type=int, default=3,
+                   metavar="K", help="harmonics taken from --orders-from (default 3: orders 2, 4, 6 "
+                                     "with --order 2)")
     s.add_argument("--out", required=True, metavar="FILE", help="output file: .npz, .csv or .parquet")
     s.add_argument("--png", metavar="FILE", help="PNG of the diagram (default: OUT with .png)")
     s.add_argument("--no-png", dest="no_png", action="store_true", help="do not write a PNG")
@@ -104,8 +114,6 @@ def _scheduler(args: argparse.Namespace) -> str | None:
     if args.mode == "continuation":
         raise CLIError("continuation sweeps run value after value on one core; drop --dask/--scheduler "
                        "or use --mode fresh")
-    if not 1 <= args.workers <= 256:
-        raise CLIError(f"--workers {args.workers} is outside the allowed range [1, 256]")
     return args.scheduler or "local"
 
 
@@ -128,50 +136,74 @@ def run(args: argparse.Namespace) -> int:
     ($RATTLE_CACHE_DIR; see 'rattle cache').  One request may run up to 1e8 forcing periods
     (values × (transient + record)), 5 to 10 minutes on two cores
     (rattle_core.batch.sweep.PERIOD_BUDGET)."""
+    if not 1 <= args.workers <= 256:
+        raise CLIError(f"--workers {args.workers} is outside the allowed range [1, 256]")
     out = check_output(args.out, SWEEP_SUFFIXES, "--out")
-    png = None
+    png = summary = None
     if not args.no_png:
-        png = check_output(args.png, (".png",), "--png") if args.png is not None else out.with_suffix(".png")
+        png = (check_output(args.png, (".png",), "--png") if args.png is not None else
+               check_output(str(out.with_suffix(".png")), (".png",), "the PNG beside --out (--no-png: none)"))
     if out.suffix.lower() != ".npz":
-        check_output(str(out.with_name(out.stem + "_summary" + out.suffix)), SWEEP_SUFFIXES, "--out")
+        summary = check_output(str(out.with_name(out.stem + "_summary" + out.suffix)),
+                               SWEEP_SUFFIXES, "the summary beside --out")
+    distinct_outputs(out, png, summary)
     for flag in ("x0", "v0"):
         finite(getattr(args, flag), f"--{flag.replace('_', '-')}")
     params, phys = build_params(args)
+    follow = _follow(args, phys)
     if args.param2 is not None:
-        return _run_map(args, out, png, params, phys)
+        return _run_map(args, out, png, params, phys, follow)
     for flag in ("start2", "stop2", "num2", "values2"):
         if getattr(args, flag) is not None:
             raise CLIError(f"--{flag} needs --param2")
     values = _values(args)
     name = args.param
     rpm = None
+    columns = None
     if name == "rpm":
         if phys is None:
             raise CLIError("--param rpm needs physical units (--inertia, --radius, --drag-torque, "
                            "--backlash-um, --rpm, --theta-amp or --alpha-amp)")
-        rpm = values
-        name, values = rpm_sweep(phys, rpm)
+        if follow is not None:
+            columns = follow.columns(phys, values)
+        else:
+            rpm = values
+            name, values = rpm_sweep(phys, rpm)
+    elif follow is not None:
+        raise CLIError("--orders-from takes harmonics at each engine speed: use it with --param rpm")
     transient = 500 if args.transient is None else args.transient
     record = 200 if args.record is None else args.record
     # Reject bad requests before any progress bar or worker starts, so the error stays one line.
-    values, transient, record = validate_sweep_args(name, values, transient, record, args.mode)
-    for v in (float(values.min()), float(values.max())):
-        params.with_value(name, v)
+    values, transient, record = validate_sweep_args(name, values, transient, record, args.mode,
+                                                    columns)
+    if columns is None:
+        for v in (float(values.min()), float(values.max())):
+            params.with_value(name, v)
     scheduler = _scheduler(args)
     progress = Progress(f"sweep {args.param}", enabled=not args.quiet, total=len(values))
     compute = sweep if args.no_cache else cached_sweep
     try:
         result = _run_on(args, scheduler, lambda executor: compute(
             params, name, values, transient=transient, record=record, mode=args.mode, x0=args.x0,
-            v0=args.v0, progress=progress, executor=executor))
+            v0=args.v0, progress=progress, executor=executor, columns=columns))
     finally:
         progress.close()
-    table, summary = sweep_frames(result, phys, None if rpm is None else (values, rpm))
+    if columns is not None:
+        table, summary = sweep_frames(result)
+        table.insert(0, "rpm", table["value"])
+        summary.insert(0, "rpm", summary["value"])
+        scale = {v: follow.follow(phys, v).impulse_scale for v in values.tolist()}
+        table["impulse_Ns"] = table["impulse"] * table["rpm"].map(scale)
+    else:
+        table, summary = sweep_frames(result, phys, None if rpm is None else (values, rpm))
     settings = dict(result.settings)
     if phys is not None:
         settings["physical"] = dataclasses.asdict(phys)
     if rpm is not None:
         settings["rpm"] = rpm.tolist()
+    if columns is not None:
+        settings["orders_from"] = str(args.orders_from)
+        settings["rpm"] = values.tolist()
     result = dataclasses.replace(result, settings=settings)
     summary_path = out.with_name(out.stem + "_summary" + out.suffix)
     if out.suffix.lower() == ".npz":
@@ -207,7 +239,22 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _run_map(args: argparse.Namespace, out: Path, png: Path | None, params, phys) -> int:
+def _follow(args: argparse.Namespace, phys):
+    """The excitation that follows engine speed (``--orders-from``), or None."""
+    if args.orders_from is None:
+        return None
+    if phys is None:
+        raise CLIError("--orders-from needs physical units (--inertia, --radius, --drag-torque, "
+                       "--backlash-um, --rpm, --theta-amp)")
+    k = args.orders_harmonics
+    if not 1 <= k <= 32:
+        raise CLIError(f"--orders-harmonics {k} is outside the allowed range [1, 32]")
+    omap = OrderMap.read(args.orders_from, [phys.order * n for n in range(1, k + 1)])
+    return Excitation(engine_order=phys.order, harmonics=k, order_map=omap)
+
+
+def _run_map(args: argparse.Namespace, out: Path, png: Path | None, params, phys,
+             follow=None) -> int:
     """A 2-D regime/intensity map, or basins of attraction, to a file plus PNG."""
     names = (args.param, args.param2)
     if args.mode != "fresh":
@@ -218,7 +265,7 @@ def _run_map(args: argparse.Namespace, out: Path, png: Path | None, params, phys
     record = 100 if args.record is None else args.record
     labels = ("--param", "--param2")
     # Work out (and reject) how the grid maps onto the model before starting any workers.
-    basin = plan_map(params, phys, names[0], xv, names[1], yv, labels)[0] == "basin"
+    basin = plan_map(params, phys, names[0], xv, names[1], yv, labels, follow)[0] == "basin"
     check_budget(xv.size * yv.size * (transient + record), "points × (transient + record)")
     scheduler = _scheduler(args)
     progress = Progress(f"map {names[0]} × {names[1]}", enabled=not args.quiet,
@@ -229,7 +276,7 @@ def _run_map(args: argparse.Namespace, out: Path, png: Path | None, params, phys
     try:
         result = _run_on(args, scheduler, lambda executor: run_map(
             params, phys, names[0], xv, names[1], yv, use_cache=not args.no_cache, labels=labels,
-            executor=executor, **common))
+            executor=executor, follow=follow, **common))
     finally:
         progress.close()
     if out.suffix.lower() == ".npz":

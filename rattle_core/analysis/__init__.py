@@ -8,6 +8,7 @@
 * ``vocabulary``: each regime's letter, code, meaning and colour; flank colours, labels and
   exported values; the side-by-side table of physical and dimensionless parameters.
 * ``sound``: the rattle sound synthesised from the impacts.
+* ``loudness``: ISO 532-1 loudness and DIN 45692 sharpness of a sound (MOSQITO).
 
 Imports only the model and the solver.
 """

@@ -153,7 +153,20 @@ def _check_modes(modes: Iterable[HousingMode] | None, sample_rate: int) -> tuple
     return modes
 
 
-def _check_sample_rate(sample_rate: int) -> int:
+def check_length(duration: float, sample_rate: int) -> int:
+    """The number of samples of a signal ``duration`` seconds long, or ``ValueError`` when the
+    duration is outside (0, :data:`MAX_DURATION`] or the count over :data:`MAX_SAMPLES`."""
+    sample_rate = check_sample_rate(sample_rate)
+    duration = check_range("duration", duration, 0.0, MAX_DURATION, lo_open=True)
+    n = max(1, int(round(duration * sample_rate)))
+    if n > MAX_SAMPLES:
+        raise ValueError(f"duration × sample_rate = {duration:.6g} s × {sample_rate} Hz = {n} samples "
+                         f"is outside the allowed range [1, {MAX_SAMPLES}]; lower the sample rate "
+                         "or the duration (fewer periods, a higher excitation frequency)")
+    return n
+
+
+def check_sample_rate(sample_rate: int) -> int:
     v = check_range("sample_rate", sample_rate, *SAMPLE_RATE_RANGE)
     if v != int(v):
         raise ValueError(f"sample_rate = {sample_rate!r} must be a whole number of Hz in "
@@ -189,8 +202,8 @@ def render(impact_times: Sequence[float], amplitudes: Sequence[float], duration:
     ndarray of float64
         ``round(duration × sample_rate)`` samples, linear in ``amplitudes``.
     """
-    sample_rate = _check_sample_rate(sample_rate)
-    duration = check_range("duration", duration, 0.0, MAX_DURATION, lo_open=True)
+    n = check_length(duration, sample_rate)
+    sample_rate = check_sample_rate(sample_rate)
     modes = _check_modes(modes, sample_rate)
     t = np.asarray(impact_times, dtype=np.float64).ravel()
     a = np.asarray(amplitudes, dtype=np.float64).ravel()
@@ -199,11 +212,6 @@ def render(impact_times: Sequence[float], amplitudes: Sequence[float], duration:
                          "they must have the same length")
     if not (np.all(np.isfinite(t)) and np.all(np.isfinite(a))):
         raise ValueError("impact_times and amplitudes must be finite")
-    n = max(1, int(round(duration * sample_rate)))
-    if n > MAX_SAMPLES:
-        raise ValueError(f"duration × sample_rate = {duration:.6g} s × {sample_rate} Hz = {n} samples "
-                         f"is outside the allowed range [1, {MAX_SAMPLES}]; lower the sample rate "
-                         "or the duration (fewer periods, a higher excitation frequency)")
     dt = 1.0 / sample_rate
     keep = (t >= 0.0) & (t < n * dt) & (a != 0.0)
     t, a = t[keep], a[keep]
@@ -307,6 +315,7 @@ def synthesize(trajectory: Trajectory, *, sample_rate: int = DEFAULT_SAMPLE_RATE
     if length > MAX_DURATION:
         raise ValueError(f"duration = {length:.6g} s is outside the allowed range (0, {MAX_DURATION:g}] s; "
                          "simulate fewer periods or raise excitation_hz")
+    check_length(length, sample_rate)
     times = (trajectory.impact_t - trajectory.t_start) / omega
     strength = trajectory.impact_impulse if polarity == "signed" else np.abs(trajectory.impact_impulse)
     signal = render(times, scale * strength, length, sample_rate, modes)
@@ -333,7 +342,7 @@ def write_wav(path: str | os.PathLike | BinaryIO, signal: np.ndarray, sample_rat
     sample_rate : int
         Samples per second, in [4000, 384000].
     """
-    sample_rate = _check_sample_rate(sample_rate)
+    sample_rate = check_sample_rate(sample_rate)
     s = np.asarray(signal, dtype=np.float64)
     if s.ndim != 1:
         raise ValueError(f"signal must be one-dimensional (mono), got shape {s.shape}")

@@ -5,6 +5,7 @@
 * ``sweep``: one parameter over many values (:func:`~rattle_core.batch.sweep.sweep`).
 * ``maps``: regime and intensity maps over two parameters, and basins of attraction.
 * ``plan``: maps over physical axes, worked out and checked before they run.
+* ``gearbox``: the verdict on a gearbox of loose gears, every gear at every speed as one batch.
 
 Imports only the model, the solver and the analysis.
 """

@@ -35,9 +35,8 @@ _KERNEL_LOCK = threading.Lock()
 
 @njit(cache=True, nogil=True)
 def _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
-               imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
+               imp_t, imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
                final_x, final_v, eps, seeds, rounding, loop_amp, kicks):
-    imp_t = np.empty(cap)
     imp_w = np.empty(cap)
     seg_t = np.empty(0)
     seg_k = np.empty(0, dtype=np.int8)
@@ -49,7 +48,7 @@ def _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
         seed = _seed(lam[i], r[i], j[i], h[i], phi[i], vs[i], 0, 0.0, x0[i], v0[i], eps[i])
     out = solver._integrate(lam[i], r[i], j[i], h[i], phi[i], vs[i], 0, 0.0, x0[i], v0[i],
                             n_tr + n_rec, n_tr, 0.0, max_imp, True, eps[i], seed,
-                            imp_t, imp_tau[i], imp_I[i], imp_w, imp_flank[i],
+                            imp_t[i], imp_tau[i], imp_I[i], imp_w, imp_flank[i],
                             seg_t, seg_k, seg_x, seg_v, str_x[i], str_v[i])
     status[i] = out[0]
     counts[i] = out[1]
@@ -65,11 +64,11 @@ def _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
 
 @njit(parallel=True, cache=True, nogil=True)
 def _sweep_kernel(lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
-                  imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
+                  imp_t, imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
                   final_x, final_v, eps, seeds, rounding, loop_amp, kicks):
     for i in prange(lam.shape[0]):
         _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
-                   imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
+                   imp_t, imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
                    final_x, final_v, eps, seeds, rounding, loop_amp, kicks)
 
 
@@ -78,11 +77,11 @@ def _sweep_kernel(lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
 # threads on them.  It needs no launch lock either, so a worker's threads run side by side.
 @njit(cache=True, nogil=True)
 def _sweep_kernel_serial(lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
-                         imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
-                         final_x, final_v, eps, seeds, rounding, loop_amp, kicks):
+                         imp_t, imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap,
+                         stick, final_x, final_v, eps, seeds, rounding, loop_amp, kicks):
     for i in range(lam.shape[0]):
         _sweep_one(i, lam, r, j, h, phi, vs, x0, v0, n_tr, n_rec, max_imp, cap,
-                   imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
+                   imp_t, imp_tau, imp_I, imp_flank, counts, status, str_x, str_v, lyap, stick,
                    final_x, final_v, eps, seeds, rounding, loop_amp, kicks)
 
 
@@ -135,7 +134,7 @@ def check_start(base: RattleParams, columns: dict[str, np.ndarray], x0) -> float
     if x0 is None:
         return None
     x0 = check_range("x0", x0, -1e6, 1e6)
-    lam, r, j, h, phi, vs = param_arrays(base, columns)
+    _, _, j, h, phi, *_ = param_arrays(base, columns)
     y0 = np.sum(h * np.cos(phi), axis=1)  # y(0) = Σ h_k cos(−φ_k)
     bad = (x0 < y0 - 1e-12) | (x0 > y0 + j + 1e-12)
     if np.any(bad):
@@ -149,14 +148,15 @@ def check_start(base: RattleParams, columns: dict[str, np.ndarray], x0) -> float
 def run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transient: int,
                record: int, x0: float | np.ndarray | None, v0: float | np.ndarray,
               max_impacts_per_period: int = solver.MAX_IMPACTS_PER_PERIOD,
-              seeds: np.ndarray | None = None) -> dict:
+              seeds: np.ndarray | None = None, times: bool = False) -> dict:
     """Run one chunk of values in parallel; returns plain arrays (picklable, for Dask too).
 
     ``name`` is one swept name (``values`` its values) or a dict of name → per-value arrays
     (then ``values`` labels the rows).  ``x0``/``v0`` may be per-value arrays of absolute
     start states; positions are clipped into each value's backlash.  ``seeds`` (per-value
     ints, as ``simulate(seed=...)``) picks each row's noise stream; ``None`` derives every
-    stream from its row's inputs.
+    stream from its row's inputs.  With ``times`` the result also holds ``time``: each impact's
+    dimensionless time from the start of the run (transient included), for a sound.
     """
     values = np.asarray(values, dtype=np.float64)
     columns = name if isinstance(name, dict) else {name: values}
@@ -191,6 +191,7 @@ def run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transien
     impacts: list = [None] * nv
     while len(todo):
         m = len(todo)
+        imp_t = np.empty((m, cap))
         imp_tau = np.empty((m, cap))
         imp_I = np.empty((m, cap))
         imp_fl = np.empty((m, cap), dtype=np.int8)
@@ -208,7 +209,7 @@ def run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transien
         args = (lam[todo], r[todo], j[todo], np.ascontiguousarray(h[todo]),
                 np.ascontiguousarray(phi[todo]), vs[todo], np.ascontiguousarray(xs[todo]),
                 vs0[todo], transient, record, max_impacts_per_period, cap,
-                imp_tau, imp_I, imp_fl, counts, status, str_x, str_v, lyap, stick, fx, fv,
+                imp_t, imp_tau, imp_I, imp_fl, counts, status, str_x, str_v, lyap, stick, fx, fv,
                 eps[todo], streams[todo], rnd, lamp, kk)
         if on_worker:
             _sweep_kernel_serial(*args)
@@ -221,7 +222,8 @@ def run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transien
                 again.append(i)
                 continue
             c = counts[a]
-            impacts[i] = (imp_I[a, :c].copy(), imp_fl[a, :c].copy(), imp_tau[a, :c].copy())
+            impacts[i] = (imp_I[a, :c].copy(), imp_fl[a, :c].copy(), imp_tau[a, :c].copy(),
+                          imp_t[a, :c].copy() if times else None)
             res["counts"][i] = c
             res["status"][i] = status[a]
             res["lyap"][i] = lyap[a]
@@ -238,6 +240,8 @@ def run_chunk(base: RattleParams, name: str | dict, values: np.ndarray, transien
     res["impulse"] = np.concatenate([imp[0] for imp in impacts]) if nv else np.empty(0)
     res["flank"] = np.concatenate([imp[1] for imp in impacts]) if nv else np.empty(0, np.int8)
     res["phase"] = np.concatenate([imp[2] for imp in impacts]) if nv else np.empty(0)
+    if times:
+        res["time"] = np.concatenate([imp[3] for imp in impacts]) if nv else np.empty(0)
     res["values"] = values
     res["j"] = j
     return res

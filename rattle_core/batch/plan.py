@@ -24,17 +24,22 @@ BASIN_AXES = ("x0", "v0")
 
 
 def point_params(params: RattleParams, phys: Any, names: tuple[str, ...],
-                 point: tuple[float, ...]) -> RattleParams:
+                 point: tuple[float, ...], follow: Any = None) -> RattleParams:
     """The dimensionless parameters at one grid point: physical axes first, then the others.
 
     ``phys`` (a :class:`~rattle_core.model.units.PhysicalParams`, or None) holds the physical
     values not swept; a physical axis replaces its field (``rpm``, ``drag_torque``, ...) and
     the point's ``RattleParams`` follows from :meth:`PhysicalParams.to_dimensionless`.
+    ``follow`` (an :class:`~rattle_core.model.gearbox.Excitation`) takes the harmonics at the
+    point's engine speed from a measurement instead of holding ``phys``'s.
     """
     if phys is not None:
         changes = {PHYSICAL_AXES[n][0]: v * PHYSICAL_AXES[n][1]
                    for n, v in zip(names, point) if n in PHYSICAL_AXES}
-        if changes:
+        if follow is not None:
+            moved = phys.replace(**changes) if changes else phys
+            params = follow.follow(moved, moved.rpm).to_dimensionless().replace(noise=params.noise)
+        elif changes:
             # the physical set knows nothing of the model's noise: it keeps the caller's
             params = phys.replace(**changes).to_dimensionless().replace(noise=params.noise)
     for n, v in zip(names, point):
@@ -45,7 +50,7 @@ def point_params(params: RattleParams, phys: Any, names: tuple[str, ...],
 
 
 def plan_map(params: RattleParams, phys: Any, x_name: str, x_values, y_name: str, y_values,
-             labels: tuple[str, str] = ("x axis", "y axis")) -> tuple:
+             labels: tuple[str, str] = ("x axis", "y axis"), follow: Any = None) -> tuple:
     """How a grid over two axes maps onto the dimensionless model; checks it before any run.
 
     Returns ``("basin",)`` for ``x0`` × ``v0``; ``("map", a, a_values, b, b_values)`` when
@@ -54,7 +59,10 @@ def plan_map(params: RattleParams, phys: Any, x_name: str, x_values, y_name: str
     (``values`` per grid point, rows following y: a 1-D sweep reshaped).  Only physical axes
     can drive the same parameter, and they act on Λ and j as products of powers
     (``Λ = m H₁ ω² / F``, ``j = b / H₁``), so that grid is ``v(x, y₀) v(x₀, y) / v(x₀, y₀)``;
-    the far corner is evaluated directly to check it.
+    the far corner is evaluated directly to check it.  With ``follow`` (harmonics that follow
+    engine speed, :meth:`~rattle_core.model.gearbox.Excitation.follow`) and physical axes, every
+    point's numbers are worked out: ``("rows", columns)``, columns of name → one value per
+    grid point (rows following y).
 
     Raises ``ValueError`` naming the axis (``labels`` say how: ``"x axis"``, ``"--param"``).
     """
@@ -86,6 +94,13 @@ def plan_map(params: RattleParams, phys: Any, x_name: str, x_values, y_name: str
                 point_params(params, phys, (n,), (v,))
             except ValueError as exc:
                 raise ValueError(f"{labels[axis]} {n}: {exc}") from None
+    if follow is not None:
+        if phys is None or not set(names) <= set(PHYSICAL_AXES):
+            raise ValueError(f"harmonics that follow engine speed need two physical axes "
+                             f"({', '.join(PHYSICAL_AXES)}); got {x_name!r} and {y_name!r}")
+        from ..model.gearbox import model_columns
+        grid = [point_params(params, phys, names, (x, y), follow) for y in yv for x in xv]
+        return ("rows", model_columns(grid))
     along_x = [point_params(params, phys, names, (x, yv[0])) for x in xv]
     along_y = [point_params(params, phys, names, (xv[0], y)) for y in yv]
     corner = point_params(params, phys, names, (xv[-1], yv[-1]))

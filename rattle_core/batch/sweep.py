@@ -101,9 +101,13 @@ def _table(chunk: dict) -> pd.DataFrame:
 
 
 def validate_sweep_args(name: str, values: Sequence[float], transient: int, record: int,
-                        mode: str) -> tuple[np.ndarray, int, int]:
-    """Check a sweep request; raises ``ValueError`` naming what is wrong."""
-    parse_name(name)
+                        mode: str, columns: dict | None = None) -> tuple[np.ndarray, int, int]:
+    """Check a sweep request; raises ``ValueError`` naming what is wrong.  With ``columns``
+    (name → per-value values of the model), ``name`` only labels ``values``."""
+    if columns is None:
+        parse_name(name)
+    elif not isinstance(name, str) or not name.isidentifier():
+        raise ValueError(f"name = {name!r} must be a word labelling the values")
     vals = check_reals("values", values)
     if vals.size == 0:
         raise ValueError("values is empty; give at least one value to sweep")
@@ -114,7 +118,20 @@ def validate_sweep_args(name: str, values: Sequence[float], transient: int, reco
     if mode not in ("fresh", "continuation"):
         raise ValueError(f"mode = {mode!r}; allowed: 'fresh' or 'continuation'")
     check_budget(vals.size * (transient + record), "values × (transient + record)")
+    if columns is not None:
+        if not columns:
+            raise ValueError("columns is empty; give at least one parameter's values")
+        for k, v in columns.items():
+            parse_name(k)
+            if np.shape(v) != vals.shape:
+                raise ValueError(f"columns[{k!r}] has {np.size(v)} values but there are "
+                                 f"{vals.size}; one per value")
     return vals, transient, record
+
+
+def _rows(name: str, cols: dict, columns: dict | None, a: int, b: int) -> str | dict:
+    """What :func:`run_chunk` takes for values ``a:b``: the swept name, or the columns' rows."""
+    return name if columns is None else {k: v[a:b] for k, v in cols.items()}
 
 
 def check_budget(periods: float, what: str) -> None:
@@ -129,7 +146,7 @@ def sweep(base: RattleParams, name: str, values: Sequence[float], transient: int
           record: int = 200, mode: str = "fresh", x0: float | None = None, v0: float = 0.0,
           progress: Callable[[int, int], Any] | None = None,
           cancel: Callable[[], bool] | None = None, chunk_size: int | None = None,
-          executor: Any = None) -> SweepResult:
+          executor: Any = None, columns: dict | None = None) -> SweepResult:
     """Sweep parameter ``name`` over ``values``; record every impact after a transient.
 
     Parameters
@@ -155,6 +172,11 @@ def sweep(base: RattleParams, name: str, values: Sequence[float], transient: int
         Values per chunk (default: about 1/20 of the sweep, at least 16).
     executor : dask.distributed.Client, optional
         Run the chunks on this Dask cluster instead of locally.
+    columns : dict, optional
+        Several parameters at once: name → one value per swept value (for example ``lam``,
+        ``j``, ``h2``, ``phi2`` of an engine-speed sweep whose harmonics follow a measurement,
+        :meth:`~rattle_core.model.gearbox.Excitation.follow`); ``name`` then only labels
+        ``values`` (``"rpm"``).
 
     Each value runs once, with ``base.noise`` (docs/model.md, "Noise").  Its noise stream
     derives from its own parameters and start state, so a value gives the same numbers in any
@@ -166,9 +188,11 @@ def sweep(base: RattleParams, name: str, values: Sequence[float], transient: int
     """
     if not isinstance(base, RattleParams):
         raise ValueError(f"base must be a RattleParams, got {type(base).__name__}")
-    vals, transient, record = validate_sweep_args(name, values, transient, record, mode)
-    param_arrays(base, {name: vals})  # validates the range of the swept values
-    x0 = check_start(base, {name: vals}, x0)
+    vals, transient, record = validate_sweep_args(name, values, transient, record, mode, columns)
+    cols = {name: vals} if columns is None else {k: np.asarray(v, dtype=np.float64)
+                                                 for k, v in columns.items()}
+    param_arrays(base, cols)  # validates the range of the swept values
+    x0 = check_start(base, cols, x0)
     v0 = check_range("v0", v0, -1e6, 1e6)
     nv = vals.size
     if chunk_size is None:
@@ -185,15 +209,16 @@ def sweep(base: RattleParams, name: str, values: Sequence[float], transient: int
             if cancel is not None and cancel():
                 cancelled = True
                 break
-            c = run_chunk(base, name, vals[i:i + 1], transient, record, x, v)
+            c = run_chunk(base, _rows(name, cols, columns, i, i + 1), vals[i:i + 1], transient,
+                          record, x, v)
             chunks.append(c)
             x, v = float(c["final_x"][0]), float(c["final_v"][0])
             if progress is not None and ((i + 1) % chunk_size == 0 or i + 1 == nv):
                 progress(i + 1, nv)
     else:
         starts = range(0, nv, chunk_size)
-        tasks = [(base, name, vals[s:s + chunk_size], transient, record, x0, v0,
-                  solver.MAX_IMPACTS_PER_PERIOD) for s in starts]
+        tasks = [(base, _rows(name, cols, columns, s, s + chunk_size), vals[s:s + chunk_size],
+                  transient, record, x0, v0, solver.MAX_IMPACTS_PER_PERIOD) for s in starts]
         chunks, cancelled = run_chunks(run_chunk, tasks, [len(t[2]) for t in tasks],
                                        executor=executor, progress=progress, cancel=cancel)
     import pandas as pd

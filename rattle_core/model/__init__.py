@@ -6,6 +6,7 @@
 * ``units``: physical units (kg·m², N·m, µm, rpm) to and from the dimensionless model.
 * ``engine``: engine speed, ω and sweeps over rpm as sweeps of Λ or j.
 * ``orders``: a measured shaft speed split into engine orders per rpm bin (:class:`OrderMap`).
+* ``gearbox``: a gearbox of loose gears driven by one measured shaft (``GEARBOX.toml``).
 
 Imports nothing else from :mod:`rattle_core`; no formatting, no colours.
 """

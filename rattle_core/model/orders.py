@@ -169,10 +169,15 @@ class OrderMap:
 
     @classmethod
     def from_csv(cls, path: str | os.PathLike, orders: Any = DEFAULT_ORDERS,
-                 rpm_step: float = 100.0) -> "OrderMap":
-        """Order analysis of a CSV file with columns ``time_s`` and ``speed_rpm``."""
-        t, w, lines = read_speed_csv(path)
-        return cls.from_arrays(t, w, orders, rpm_step, source=Path(path).name, lines=lines)
+                 rpm_step: float = 100.0, label: str | None = None) -> "OrderMap":
+        """Order analysis of a CSV file with columns ``time_s`` and ``speed_rpm``; ``label``
+        names the file in messages and in :attr:`source` (default: its name)."""
+        label = Path(path).name if label is None else label
+        t, w, lines = read_speed_csv(path, label)
+        try:
+            return cls.from_arrays(t, w, orders, rpm_step, source=label, lines=lines)
+        except ValueError as exc:
+            raise ValueError(f"{label}, {exc}") from None
 
     @classmethod
     def from_table(cls, table: Any, source: str = "table") -> "OrderMap":
@@ -312,12 +317,14 @@ def _header(path: str | os.PathLike) -> list[str]:
     return []
 
 
-def read_speed_csv(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def read_speed_csv(path: str | os.PathLike, label: str | None = None
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(time_s, speed_rpm, line numbers)`` of a measurement CSV, read whole and checked.
 
-    Raises ``ValueError`` naming the line at fault (module docstring, "Refusals")."""
+    Raises ``ValueError`` naming the file (or ``label``) and the line at fault (module
+    docstring, "Refusals")."""
     _check_size(path)
-    name = Path(path).name
+    name = Path(path).name if label is None else label
     times: list[float] = []
     speeds: list[float] = []
     lines: list[int] = []

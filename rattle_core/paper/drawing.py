@@ -214,3 +214,48 @@ def orders_png(path: Path | str, order_map: Any, title: str) -> None:
     fig.suptitle(title, fontsize=9)
     fig.tight_layout()
     fig.savefig(path)
+
+
+def verdict_png(path: Path | str, result: Any, title: str) -> None:
+    """A gearbox verdict: each gear's regime against engine speed (a strip per gear, its onset
+    marked), the rattle intensity and the loudness of each gear and of the whole gearbox."""
+    from matplotlib.colors import ListedColormap
+    from matplotlib.patches import Patch
+    names = [g.name for g in result.gearbox.gears]
+    fig = agg_figure((10.0, 8.0), dpi=110)
+    ax_r, ax_i, ax_l = fig.subplots(3, 1, sharex=True,
+                                    gridspec_kw={"height_ratios": [max(1, len(names)) * 0.35, 1, 1]})
+    letters = list(LETTERS)
+    rpm = np.asarray(result.rpm)
+    edges = np.concatenate([[rpm[0]], 0.5 * (rpm[1:] + rpm[:-1]), [rpm[-1]]]) if rpm.size > 1 \
+        else np.array([rpm[0] - 1, rpm[0] + 1])
+    codes = np.full((len(names), rpm.size), len(letters) - 1)
+    for i, name in enumerate(names):
+        rows = result.gear(name)
+        idx = np.searchsorted(rpm, rows["rpm"].to_numpy())
+        codes[i, idx] = [letters.index(g) if g in letters else len(letters) - 1
+                         for g in rows["regime"]]
+        ax_i.plot(rows["rpm"], rows["intensity"], ".-", label=name)
+        ax_l.plot(rows["rpm"], rows["loudness_sone"], ".-", label=name)
+        onset = rows["onset_rpm"].iloc[0] if len(rows) else np.nan
+        if np.isfinite(onset):
+            ax_r.plot([onset], [i + 0.5], "k|", ms=14, mew=2)
+    ax_r.pcolormesh(edges, np.arange(len(names) + 1), codes,
+                    cmap=ListedColormap([REGIME_COLOURS[g] for g in letters]),
+                    vmin=-0.5, vmax=len(letters) - 0.5, shading="flat")
+    ax_r.set_yticks(np.arange(len(names)) + 0.5, names, fontsize=8)
+    present = sorted({letters[c] for c in codes.ravel()}, key=letters.index)
+    ax_r.legend(handles=[Patch(color=REGIME_COLOURS[g], label=g) for g in present],
+                loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=len(present), fontsize=7,
+                frameon=False)
+    box = result.gear("gearbox")
+    ax_i.plot(box["rpm"], box["intensity"], "k-", lw=2, label="gearbox")
+    ax_l.plot(box["rpm"], box["loudness_sone"], "k-", lw=2, label="gearbox")
+    ax_i.set_yscale("symlog", linthresh=1e-5)
+    ax_i.set_ylabel("intensity Σ I²/s [N²·s]")
+    ax_l.set_ylabel("loudness N5 [sone]")
+    ax_l.set_xlabel("engine speed [rpm]")
+    ax_l.legend(fontsize=7, frameon=False, ncol=3)
+    fig.suptitle(title + "\nregime per gear (onset marked |)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path)

@@ -49,7 +49,7 @@ from .files import (_SUMMARY_TYPES, TMP_PREFIX, load_map, load_result, read_chec
 DEFAULT_SIZE_MB = 1024
 SIZE_MB_RANGE = (0.0, 1.0e7)
 #: File-name prefixes of cache entries; nothing else in the directory is ever deleted.
-PREFIXES = ("sweep", "map", "cont")
+PREFIXES = ("sweep", "map", "cont", "gearbox")
 _SWEEP_SETTINGS = ("transient", "record", "mode", "x0", "v0")
 _MAP_SETTINGS = ("transient", "record", "x0", "v0", "decimals")
 #: What every sweep and map entry must hold (basins also ``f_attractor``).
@@ -87,12 +87,16 @@ def size_limit() -> int:
 
 # ----- requests and keys --------------------------------------------------------------------
 
-def sweep_request(base: RattleParams, name: str, values, settings: dict) -> dict:
+def sweep_request(base: RattleParams, name: str, values, settings: dict,
+                  columns: dict | None = None) -> dict:
     """What a sweep's result depends on; its :func:`canonical_hash` is the cache key."""
     keyed = {k: settings[k] for k in _SWEEP_SETTINGS}
-    return {"kind": "sweep", "params": base.canonical(), "name": name,
-            "values": np.asarray(values, dtype=np.float64), "settings": keyed,
-            "schema": SCHEMA_VERSION, "solver": SOLVER_VERSION}
+    request = {"kind": "sweep", "params": base.canonical(), "name": name,
+               "values": np.asarray(values, dtype=np.float64), "settings": keyed,
+               "schema": SCHEMA_VERSION, "solver": SOLVER_VERSION}
+    if columns is not None:  # absent otherwise, so the keys of plain sweeps stay as they were
+        request["columns"] = {k: np.asarray(v, dtype=np.float64) for k, v in columns.items()}
+    return request
 
 
 def sweep_key(base: RattleParams, name: str, values, settings: dict) -> str:
@@ -152,17 +156,17 @@ def cached(prefix: str, request: dict, compute: Callable[[], Any],
 def cached_sweep(base: RattleParams, name: str, values, transient: int = 500, record: int = 200,
                  mode: str = "fresh", x0: float | None = None, v0: float = 0.0, progress=None,
                  cancel=None, chunk_size: int | None = None, executor: Any = None,
-                 directory: Path | str | None = None) -> SweepResult:
+                 directory: Path | str | None = None, columns: dict | None = None) -> SweepResult:
     """:func:`~rattle_core.batch.sweep.sweep`, served from the disk cache when the same request
     ran before (``result.from_cache``).  A cancelled sweep is returned but not stored."""
-    vals, transient, record = validate_sweep_args(name, values, transient, record, mode)
+    vals, transient, record = validate_sweep_args(name, values, transient, record, mode, columns)
     settings = {"transient": transient, "record": record, "mode": mode,
                 "x0": None if x0 is None else float(x0), "v0": float(v0)}
 
     def compute() -> SweepResult:
         return sweep(base, name, vals, transient=transient, record=record, mode=mode, x0=x0,
                      v0=v0, progress=progress, cancel=cancel, chunk_size=chunk_size,
-                     executor=executor)
+                     executor=executor, columns=columns)
 
     def holds(res: SweepResult) -> bool:
         return (res.name == name and res.params.canonical() == base.canonical()
@@ -170,7 +174,7 @@ def cached_sweep(base: RattleParams, name: str, values, transient: int = 500, re
                 and np.array_equal(res.summary["value"].to_numpy(dtype=np.float64), vals)
                 and bool(np.isin(res.table["value"].to_numpy(dtype=np.float64), vals).all()))
 
-    result, hit = cached("sweep", sweep_request(base, name, vals, settings), compute,
+    result, hit = cached("sweep", sweep_request(base, name, vals, settings, columns), compute,
                          load_result, save_result, holds, directory, SWEEP_FIELDS)
     if hit:
         if progress is not None:
@@ -215,7 +219,8 @@ def cached_map(kind: str, params: RattleParams, x_name: str, x_values, y_name: s
 
 @dataclasses.dataclass(frozen=True)
 class Entry:
-    """One cache file: its path, kind (``sweep``, ``map`` or ``cont``, a continued branch), size in bytes and last use."""
+    """One cache file: its path, kind (``sweep``, ``map``, ``cont``, a continued branch, or
+    ``gearbox``, a verdict), size in bytes and last use."""
 
     path: Path
     kind: str

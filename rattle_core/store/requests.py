@@ -23,9 +23,10 @@ __all__ = ["run_map", "PHYSICAL_AXES"]
 
 
 def _flat_map(params: RattleParams, name: str, flat: np.ndarray, shape: tuple[int, int],
-              use_cache: bool, common: dict) -> MapResult:
-    """A map whose two axes drive one parameter: a 1-D sweep over every grid point, reshaped."""
-    res = (cached_sweep if use_cache else sweep)(params, name, flat, **common)
+              use_cache: bool, common: dict, columns: dict | None = None) -> MapResult:
+    """A map whose two axes drive one parameter, or (``columns``) every point's own numbers:
+    a 1-D sweep over every grid point, reshaped."""
+    res = (cached_sweep if use_cache else sweep)(params, name, flat, columns=columns, **common)
     summ = res.summary
     fields = _fields([], flat.size)
     m = len(summ)
@@ -40,7 +41,7 @@ def _flat_map(params: RattleParams, name: str, flat: np.ndarray, shape: tuple[in
 
 def run_map(params: RattleParams, phys: Any, x_name: str, x_values, y_name: str, y_values, *,
             use_cache: bool = True, labels: tuple[str, str] = ("x axis", "y axis"),
-            **common: Any) -> MapResult:
+            follow: Any = None, **common: Any) -> MapResult:
     """A regime/intensity map or basins of attraction over any two axes, labelled as asked.
 
     Parameters
@@ -59,6 +60,9 @@ def run_map(params: RattleParams, phys: Any, x_name: str, x_values, y_name: str,
         store this one; ``result.from_cache`` tells which happened.
     labels : (str, str)
         How error messages name the two axes.
+    follow : Excitation, optional
+        Harmonics that follow engine speed (:class:`~rattle_core.model.gearbox.Excitation`,
+        from a measurement): every point takes them at its own speed.
     **common
         ``transient``, ``record``, ``x0``, ``v0`` (regime maps), ``progress``, ``cancel``,
         ``executor``, ``chunk_size``, as for :func:`~rattle_core.batch.maps.regime_map` and
@@ -72,7 +76,7 @@ def run_map(params: RattleParams, phys: Any, x_name: str, x_values, y_name: str,
         units, ``physical``.
     """
     use_cache = check_bool("use_cache", use_cache)
-    plan = plan_map(params, phys, x_name, x_values, y_name, y_values, labels)
+    plan = plan_map(params, phys, x_name, x_values, y_name, y_values, labels, follow)
     xv = _grid_args(x_name, x_values, "x_values")
     yv = _grid_args(y_name, y_values, "y_values")
     if plan[0] == "basin":
@@ -89,6 +93,11 @@ def run_map(params: RattleParams, phys: Any, x_name: str, x_values, y_name: str,
         result = (cached_map("regime", params, a, av, b, bv, **common) if use_cache
                   else regime_map(params, a, av, b, bv, **common))
         axes = [a, b]
+    elif plan[0] == "rows":
+        cols = plan[1]
+        result = _flat_map(params, "point", np.arange(xv.size * yv.size, dtype=np.float64),
+                           (yv.size, xv.size), use_cache, common, cols)
+        axes = sorted(cols)
     else:
         _, name, flat = plan
         result = _flat_map(params, name, flat, (yv.size, xv.size), use_cache, common)

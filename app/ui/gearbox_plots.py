@@ -1,0 +1,90 @@
+"""The Gearbox tab's plots as HoloViews elements: a verdict (and its what-if variant) in, plots out.
+
+* :func:`orders_plot`: each measured order's angular acceleration against engine speed;
+* :func:`regime_plot`: each gear's regime against engine speed (one row per gear), its onset
+  marked, the variant's regimes as small squares below the baseline's;
+* :func:`metric_plot`: a column of the verdict (intensity, loudness) against engine speed per
+  gear and for the whole gearbox, the variant dashed over the baseline.
+
+No session, no widget: the view (:mod:`app.views.gearbox`) wraps them in DynamicMaps.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import holoviews as hv
+import numpy as np
+
+from ..core import GEARBOX
+from .labels import REGIME_COLOR
+from .plots import TOOLS
+
+PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
+           "#7f7f7f", "#bcbd22", "#17becf"]
+SIZE = dict(height=260, responsive=True, tools=TOOLS, framewise=True, show_grid=True)
+
+
+def orders_plot(order_map: Any) -> hv.Overlay:
+    """Angular acceleration amplitude of each order against rpm (empty without a map)."""
+    if order_map is None:
+        return hv.Overlay([hv.Curve([], "rpm", "accel").relabel("no measurement yet")]).opts(
+            hv.opts.Curve(**SIZE))
+    curves = [hv.Curve((order_map.rpm, order_map.accel_rad_s2[:, j]),
+                       hv.Dimension("rpm", label="engine speed [rpm]"),
+                       hv.Dimension("accel", label="angular acceleration [rad/s²]"),
+                       label=f"order {k:g}").opts(color=PALETTE[j % len(PALETTE)])
+              for j, k in enumerate(order_map.orders)]
+    return hv.Overlay(curves).opts(hv.opts.Curve(**SIZE, line_width=2),
+                                   hv.opts.Overlay(title=f"orders of {order_map.source}",
+                                                   legend_position="top_left"))
+
+
+def regime_plot(base: Any, variant: Any) -> hv.Overlay:
+    """Regimes per gear and speed (baseline circles, variant squares just below)."""
+    layers = []
+    if base is not None:
+        names = [g.name for g in base.gearbox.gears]
+        for shift, verdict, marker, size in ((0.0, base, "circle", 9), (-0.3, variant, "square", 6)):
+            if verdict is None:
+                continue
+            t = verdict.table[verdict.table["gear"] != GEARBOX]
+            y = t["gear"].map({n: i for i, n in enumerate(names)}).to_numpy(dtype=float) + shift
+            colours = [REGIME_COLOR.get(g, "#000000") for g in t["regime"]]
+            layers.append(hv.Points((t["rpm"].to_numpy(), y, t["regime"].to_numpy(), colours),
+                                    ["rpm", "gear"], ["regime", "colour"]).opts(
+                color="colour", marker=marker, size=size, tools=["hover"]))
+            on = [(v, i + shift) for i, v in enumerate(verdict.onsets.values()) if np.isfinite(v)]
+            layers.append(hv.Points(on, ["rpm", "gear"]).opts(marker="dash", size=22, angle=90,
+                                                             color="black", line_width=2))
+        ticks = [(i, n) for i, n in enumerate(names)]
+    else:
+        ticks = []
+    if not layers:
+        layers = [hv.Points([], ["rpm", "gear"])]
+    axes = {"yticks": ticks} if ticks else {}  # Bokeh cannot take an empty tick list
+    return hv.Overlay(layers).opts(hv.opts.Points(**SIZE, **axes, ylim=(-0.6, max(len(ticks), 1) - 0.4),
+                                                  xlabel="engine speed [rpm]", ylabel="",
+                                                  title="regime per gear (onset |; variant ■ below)"))
+
+
+def metric_plot(base: Any, variant: Any, column: str, label: str, logy: bool = False) -> hv.Overlay:
+    """``column`` against rpm for each gear and the gearbox; the variant dashed."""
+    curves = []
+    for verdict, dash in ((base, "solid"), (variant, "dashed")):
+        if verdict is None:
+            continue
+        tail = "" if dash == "solid" else " (variant)"
+        for i, name in enumerate([g.name for g in verdict.gearbox.gears] + [GEARBOX]):
+            rows = verdict.gear(name)
+            y = rows[column].to_numpy(dtype=float)
+            if logy:
+                y = np.where(y > 0, y, np.nan)
+            colour = "black" if name == GEARBOX else PALETTE[i % len(PALETTE)]
+            curves.append(hv.Curve((rows["rpm"].to_numpy(), y), "rpm", column,
+                                   label=f"{name}{tail}").opts(
+                color=colour, line_dash=dash, line_width=3 if name == GEARBOX else 1.5))
+    if not curves:
+        curves = [hv.Curve([], "rpm", column)]
+    return hv.Overlay(curves).opts(
+        hv.opts.Curve(**SIZE, logy=logy, xlabel="engine speed [rpm]", ylabel=label),
+        hv.opts.Overlay(legend_position="top_left", title=label))

@@ -1,0 +1,368 @@
+"""The Gearbox tab: from a measurement to a verdict, with a what-if variant beside it.
+
+1. **Measurement**: upload the measured shaft's speed (``time_s``, ``speed_rpm``; a size limit)
+   or take the shipped synthetic run-up; the orders against rpm are drawn.
+2. **Gears**: edit them in a table, or upload a ``GEARBOX.toml`` (it fills the table and the
+   excitation settings; a measurement it names is the one shown here, never a server file).
+3. **Verdict**: every gear at every speed in the background (the session's ``gearbox`` job,
+   :func:`app.work.gearbox.verdicts`, cached on disk), with progress and cancel; onsets and
+   regimes, intensity and loudness against rpm, the variant (drag +x %, backlash ±y µm)
+   dashed over the baseline.
+4. **Listen** to the whole gearbox at any speed; **export** the verdict as CSV and a
+   self-contained HTML report (inputs, pictures, tables).
+
+Uploads are parsed in the job pool's workers under the job limits (:mod:`app.work.gearbox`).
+"""
+from __future__ import annotations
+
+import io
+import math
+from typing import Any
+
+import holoviews as hv
+import numpy as np
+import pandas as pd
+import panel as pn
+import param
+
+from ..core import Excitation, Gear, Gearbox, check_verdict_rpm
+from ..state import ExplorerState, GearboxSettings
+from ..ui.gearbox_plots import metric_plot, orders_plot, regime_plot
+from ..ui.labels import text_html
+from ..ui.plots import HoloViewsPane
+from ..ui.widgets import Field, message
+from ..work import gearbox as work
+from ..work.threads import HV_LOCK
+
+COLUMNS = ["name", "inertia_kgm2", "base_radius_m", "drag_torque_Nm", "backlash_um",
+           "restitution", "speed_ratio", "driver_radius_m"]
+DEFAULT_GEARS = pd.DataFrame([
+    ["5th idler", 4e-4, 0.035, 0.05, 80.0, 0.65, 1.0, np.nan],
+    ["reverse idler", 2.5e-4, 0.030, 0.03, 120.0, 0.65, 0.8, np.nan],
+    ["6th", 3e-4, 0.040, 0.08, 60.0, 0.65, 1.3, 0.030]], columns=COLUMNS)
+MAX_GEARS = 12
+VARIANTS = {"no variant": "none", "drag torque +/- %": "drag", "backlash +/- µm": "backlash"}
+
+
+class GearboxView(pn.viewable.Viewer):
+    """The Gearbox tab of one session (see the module docstring)."""
+
+    state = param.ClassSelector(class_=ExplorerState)
+    jobs = param.Parameter()
+    revision = param.Integer(0)
+    orders_revision = param.Integer(0)
+
+    def __init__(self, **params: Any):
+        super().__init__(**params)
+        self.settings = GearboxSettings()
+        self.order_map: Any = None
+        self.constant: Any = None  # constant orders from an uploaded gearbox file
+        self.base: Any = None
+        self.variant: Any = None
+        self.variant_text = ""
+        self.report = ""
+        self.job: Any = None
+        self._request: Any = None
+        self.measurement_input = pn.widgets.FileInput(accept=".csv,.gz", css_classes=["gb-measurement"],
+                                                      sizing_mode="stretch_width")
+        self.sample_button = pn.widgets.Button(label="Use the sample run-up (synthetic)",
+                                               css_classes=["gb-sample"], sizing_mode="stretch_width")
+        self.measure_status = pn.pane.HTML(text_html("No measurement yet."), css_classes=["gb-measure-status"])
+        self.table = pn.widgets.Tabulator(DEFAULT_GEARS.copy(), show_index=False, height=170,
+                                          sizing_mode="stretch_width", css_classes=["gb-gears"])
+        self.add_button = pn.widgets.Button(label="Add gear", css_classes=["gb-add"])
+        self.remove_button = pn.widgets.Button(label="Remove last", css_classes=["gb-remove"])
+        self.toml_input = pn.widgets.FileInput(accept=".toml", css_classes=["gb-toml"],
+                                               sizing_mode="stretch_width")
+        self.run_button = pn.widgets.Button(label="Run the verdict", color="primary",
+                                            css_classes=["gb-run"], sizing_mode="stretch_width")
+        self.cancel_button = pn.widgets.Button(label="Cancel", disabled=True, css_classes=["gb-cancel"],
+                                               sizing_mode="stretch_width")
+        self.progress = pn.indicators.Progress(value=0, max=100, visible=False, height=14,
+                                               sizing_mode="stretch_width", css_classes=["gb-progress"])
+        self.status = pn.pane.HTML(text_html("No verdict yet."), css_classes=["gb-status"],
+                                   sizing_mode="stretch_width")
+        self.listen_button = pn.widgets.Button(label="Listen", css_classes=["gb-listen"])
+        self.audio = pn.pane.Audio(None, sample_rate=48_000, name="gearbox sound", css_classes=["gb-audio"])
+        self.listen_status = pn.pane.HTML("", css_classes=["gb-listen-status"])
+        self.csv_download = pn.widgets.FileDownload(callback=self.csv, filename="gearbox_verdict.csv",
+                                                    label="Verdict as CSV", disabled=True,
+                                                    css_classes=["gb-csv"], sizing_mode="stretch_width")
+        self.report_download = pn.widgets.FileDownload(
+            callback=lambda: io.StringIO(self.report), filename="gearbox_report.html",
+            label="Report (HTML)", disabled=True, css_classes=["gb-report"], sizing_mode="stretch_width")
+        self.measurement_input.param.watch(self._on_measurement, "value")
+        self.toml_input.param.watch(self._on_toml, "value")
+        self.sample_button.on_click(lambda e: self.measure(None))
+        self.add_button.on_click(lambda e: self._add_gear())
+        self.remove_button.on_click(lambda e: self._remove_gear())
+        self.run_button.on_click(lambda e: self.run())
+        self.cancel_button.on_click(lambda e: self.cancel("Cancelled."))
+        self.listen_button.on_click(lambda e: self.listen())
+        with HV_LOCK:
+            rev = [hv.streams.Params(self, ["revision"])]
+            self.orders_map = hv.DynamicMap(lambda orders_revision: orders_plot(self.order_map),
+                                            streams=[hv.streams.Params(self, ["orders_revision"])])
+            self.regimes = hv.DynamicMap(lambda revision: regime_plot(self.base, self.variant), streams=rev)
+            self.intensity = hv.DynamicMap(lambda revision: metric_plot(
+                self.base, self.variant, "intensity", "intensity Σ I²/s [N²·s]", logy=True), streams=rev)
+            self.loudness = hv.DynamicMap(lambda revision: metric_plot(
+                self.base, self.variant, "loudness_sone", "loudness N5 [sone]"), streams=rev)
+
+    def __panel__(self):
+        s, st = self.settings, self.state
+
+        def field(name: str, css: str) -> Field:
+            return Field(s, name, slider=False, css=css)
+        controls = pn.Column(
+            pn.pane.Markdown("**1. Measurement** (`time_s`, `speed_rpm`; up to "
+                             f"{work.MAX_MEASUREMENT_BYTES // 1_000_000} MB)"),
+            self.measurement_input, self.sample_button, message(st, "gearbox-measure"), self.measure_status,
+            pn.Row(field("engine_order", "gb-order"), field("harmonics", "gb-harmonics"),
+                   field("rpm_step", "gb-rpm-step"), sizing_mode="stretch_width"),
+            pn.pane.Markdown("**2. Gears** (edit the table, or upload a GEARBOX.toml)"),
+            self.table, pn.Row(self.add_button, self.remove_button), self.toml_input,
+            message(st, "gearbox-gears"),
+            pn.pane.Markdown("**3. Verdict**"),
+            pn.Row(field("rpm_start", "gb-rpm-start"), field("rpm_stop", "gb-rpm-stop"),
+                   field("rpm_num", "gb-rpm-num"), sizing_mode="stretch_width"),
+            pn.Row(field("transient", "gb-transient"), field("record", "gb-record"),
+                   field("transfer", "gb-transfer"), sizing_mode="stretch_width"),
+            pn.widgets.Select.from_param(s.param.variant, options=VARIANTS, css_classes=["gb-variant"]),
+            pn.Row(field("drag_pct", "gb-drag-pct"), field("backlash_change_um", "gb-backlash-change"),
+                   sizing_mode="stretch_width"),
+            pn.Row(self.run_button, self.cancel_button, sizing_mode="stretch_width"),
+            message(st, "gearbox-run"), self.progress, self.status,
+            pn.Row(self.csv_download, self.report_download, sizing_mode="stretch_width"),
+            pn.pane.Markdown("**4. Listen** to the whole gearbox"),
+            pn.Row(field("listen_rpm", "gb-listen-rpm"), self.listen_button),
+            message(st, "gearbox-listen"), self.listen_status, self.audio,
+            width=460, margin=(0, 10))
+        plots = pn.Column(*(HoloViewsPane(dm, sizing_mode="stretch_width", css_classes=[css])
+                            for dm, css in ((self.orders_map, "gb-orders-plot"), (self.regimes, "gb-regime-plot"),
+                                            (self.intensity, "gb-intensity-plot"),
+                                            (self.loudness, "gb-loudness-plot"))),
+                          sizing_mode="stretch_width")
+        return pn.Row(controls, plots, sizing_mode="stretch_width")
+
+    # ----- the measurement and the gears --------------------------------------------------
+
+    def _orders(self) -> tuple:
+        s = self.settings
+        return tuple(s.engine_order * n for n in range(1, s.harmonics + 1))
+
+    def _on_measurement(self, event) -> None:
+        data = event.new
+        if data is None:
+            return
+        if len(data) > work.MAX_MEASUREMENT_BYTES:
+            self.state.say("gearbox-measure", f"the file has {len(data)} bytes; the allowed size is up "
+                                              f"to {work.MAX_MEASUREMENT_BYTES} bytes")
+            return
+        self.measure(bytes(data))
+
+    def measure(self, data: bytes | None) -> None:
+        """Parse an uploaded measurement (``None``: the sample) in a worker."""
+        self.state.clear("gearbox-measure")
+        what = "the sample run-up" if data is None else f"the uploaded file ({len(data)} bytes)"
+        self.measure_status.object = text_html(f"Analysing {what}…")
+        self.jobs.submit("gearbox-measure", work.measurement,
+                         (data, self._orders(), self.settings.rpm_step), time_limit=120.0,
+                         on_done=self._measured, on_error=lambda m: self._failed("gearbox-measure", m))
+
+    def _measured(self, omap: Any) -> None:
+        self.order_map, self.constant = omap, None
+        self.measure_status.object = text_html(
+            f"{omap.source}: {omap.rpm.size} rpm bins from {omap.rpm[0]:.0f} to {omap.rpm[-1]:.0f} "
+            f"rpm, orders {', '.join(f'{k:g}' for k in omap.orders)}.")
+        lo, hi = omap.rpm_range
+        self.settings.param.update(rpm_start=float(math.ceil(lo)), rpm_stop=float(math.floor(hi)))
+        self.orders_revision += 1
+
+    def _failed(self, where: str, msg: str) -> None:
+        self.state.say(where, msg)
+        if where == "gearbox-measure":
+            self.measure_status.object = text_html("No measurement taken: see the message above.")
+
+    def _on_toml(self, event) -> None:
+        data = event.new
+        if data is None:
+            return
+        if len(data) > work.MAX_TOML_BYTES:
+            self.state.say("gearbox-gears", f"the file has {len(data)} bytes; the allowed size is up "
+                                            f"to {work.MAX_TOML_BYTES} bytes")
+            return
+        self.state.clear("gearbox-gears")
+        self.jobs.submit("gearbox-toml", work.gearbox_text, (bytes(data), self.order_map),
+                         time_limit=120.0, on_done=self._toml_read,
+                         on_error=lambda m: self.state.say("gearbox-gears", m))
+
+    def _toml_read(self, box: Any) -> None:
+        rows = [[g.name, g.inertia_kgm2, g.base_radius_m, g.drag_torque_Nm, g.backlash_um,
+                 g.restitution, g.speed_ratio, np.nan if g.driver_radius_m is None else g.driver_radius_m]
+                for g in box.gears]
+        self.table.value = pd.DataFrame(rows, columns=COLUMNS)
+        exc = box.excitation
+        self.settings.param.update(engine_order=exc.engine_order, harmonics=exc.harmonics,
+                                   transfer=box.transfer_pa_per_ns)
+        if exc.order_map is None:
+            self.constant = exc
+            self.measure_status.object = text_html("Constant orders from the gearbox file.")
+        elif exc.order_map is not self.order_map:
+            self._measured(exc.order_map)
+
+    def _add_gear(self) -> None:
+        df = self.table.value
+        if len(df) >= MAX_GEARS:
+            self.state.say("gearbox-gears", f"a gearbox here has at most {MAX_GEARS} gears")
+            return
+        row = (df.iloc[-1:] if len(df) else DEFAULT_GEARS.iloc[:1]).copy()
+        row["name"] = f"gear {len(df) + 1}"
+        self.table.value = pd.concat([df, row], ignore_index=True)
+
+    def _remove_gear(self) -> None:
+        if len(self.table.value) > 1:
+            self.table.value = self.table.value.iloc[:-1].reset_index(drop=True)
+
+    def gearbox(self) -> Gearbox:
+        """The gearbox the tab describes; ``ValueError`` naming what is wrong."""
+        s = self.settings
+        gears = []
+        for i, row in self.table.value.iterrows():
+            values = {c: row[c] for c in COLUMNS}
+            values["name"] = str(values["name"])
+            dr = values["driver_radius_m"]
+            values["driver_radius_m"] = None if dr is None or (isinstance(dr, float) and math.isnan(dr)) else dr
+            try:
+                gears.append(Gear(**{k: (v if k == "name" or v is None else float(v)) for k, v in values.items()}))
+            except (TypeError, ValueError) as exc:
+                raise ValueError(f"row {i + 1}: {exc}") from None
+        if self.constant is not None:
+            exc_ = self.constant
+        elif self.order_map is None:
+            raise ValueError("load a measurement or take the sample run-up first")
+        else:
+            exc_ = Excitation(engine_order=s.engine_order, harmonics=s.harmonics, order_map=self.order_map)
+        return Gearbox(excitation=exc_, gears=tuple(gears), transfer_pa_per_ns=s.transfer)
+
+    def variant_of(self, box: Gearbox) -> tuple[Gearbox | None, str]:
+        """The what-if gearbox the settings ask for, and its name."""
+        s = self.settings
+        if s.variant == "drag":
+            return box.replace(gears=tuple(g.replace(drag_torque_Nm=g.drag_torque_Nm * (1 + s.drag_pct / 100))
+                                           for g in box.gears)), f"drag torque {s.drag_pct:+g} %"
+        if s.variant == "backlash":
+            return box.replace(gears=tuple(g.replace(backlash_um=g.backlash_um + s.backlash_change_um)
+                                           for g in box.gears)), f"backlash {s.backlash_change_um:+g} µm"
+        return None, ""
+
+    # ----- the verdict --------------------------------------------------------------------
+
+    def run(self) -> bool:
+        """Start the verdict (and its variant) in the background; False with a message if the
+        request cannot run."""
+        s, st = self.settings, self.state
+        st.clear("gearbox-run", "gearbox-gears")
+        try:
+            box = self.gearbox()
+        except ValueError as exc:
+            st.say("gearbox-gears", str(exc))
+            return False
+        try:
+            variant, text = self.variant_of(box)
+            if not s.rpm_start < s.rpm_stop:
+                raise ValueError(f"rpm from ({s.rpm_start:g}) must be below rpm to ({s.rpm_stop:g})")
+            rpm = np.linspace(s.rpm_start, s.rpm_stop, s.rpm_num)
+            for b in (box, variant):
+                if b is not None:
+                    b.physical(0, float(rpm[0]))
+                    b.physical(0, float(rpm[-1]))
+            check_verdict_rpm(rpm, box)
+        except ValueError as exc:
+            st.say("gearbox-run", str(exc))
+            return False
+        self._request = req = object()
+        self.variant_text = text
+        self.progress.param.update(value=0, visible=True)
+        self.cancel_button.disabled = False
+        self.status.object = text_html(f"Computing {len(box.gears)} gears × {rpm.size} speeds"
+                                       f"{' and the variant' if variant is not None else ''}…")
+        self.job = self.jobs.submit("gearbox", work.verdicts, (box, variant, rpm, s.transient, s.record, text),
+                                    time_limit=600.0, on_progress=lambda f: self._progress(req, f),
+                                    on_done=lambda r: self._done(req, r),
+                                    on_error=lambda m: self._error(req, m))
+        return True
+
+    def cancel(self, text: str | None = None) -> None:
+        if self.job is not None:
+            self.job.cancel()
+            self.job = None
+        self._request = None
+        self.progress.visible = False
+        self.cancel_button.disabled = True
+        if text:
+            self.status.object = text_html(text)
+
+    def _progress(self, req: Any, fraction: float) -> None:
+        if req is self._request:
+            self.progress.value = int(100 * fraction)
+
+    def _error(self, req: Any, msg: str) -> None:
+        if req is self._request:
+            self.cancel(None)
+            self.status.object = text_html("No verdict: see the message above.")
+            self.state.say("gearbox-run", f"The verdict could not be computed: {msg}")
+
+    def _done(self, req: Any, result: tuple) -> None:
+        if req is not self._request:
+            return
+        self.job, self._request = None, None
+        self.progress.visible = False
+        self.cancel_button.disabled = True
+        self.base, self.variant, self.report = result
+        onsets = "; ".join(f"{k}: {'from %g rpm' % v if math.isfinite(v) else 'no rattle'}"
+                           for k, v in self.base.onsets.items())
+        how = "from the disk cache" if self.base.from_cache else "computed"
+        text = f"Verdict ({how}) — {onsets}."
+        if self.variant is not None:
+            text += f" Variant ({self.variant_text}): " + "; ".join(
+                f"{k}: {'from %g rpm' % v if math.isfinite(v) else 'no rattle'}"
+                for k, v in self.variant.onsets.items()) + "."
+        self.status.object = text_html(text)
+        self.csv_download.disabled = False
+        self.report_download.disabled = not self.report
+        self.revision += 1
+
+    def csv(self) -> io.StringIO:
+        """The verdict (and the variant's, with a ``case`` column) as CSV."""
+        if self.base is None:
+            return io.StringIO("")
+        frames = [self.base.table.assign(case="baseline")]
+        if self.variant is not None:
+            frames.append(self.variant.table.assign(case=self.variant_text))
+        return io.StringIO(pd.concat(frames, ignore_index=True).to_csv(index=False))
+
+    # ----- listening ----------------------------------------------------------------------
+
+    def listen(self) -> bool:
+        """Render the whole gearbox at the chosen speed in the background."""
+        st = self.state
+        st.clear("gearbox-listen")
+        try:
+            box = self.gearbox()
+            box.physical(0, self.settings.listen_rpm)
+            check_verdict_rpm([self.settings.listen_rpm], box)
+        except ValueError as exc:
+            st.say("gearbox-listen", str(exc))
+            return False
+        self.listen_status.object = text_html(f"Rendering {work.LISTEN_SECONDS:g} s at "
+                                              f"{self.settings.listen_rpm:g} rpm…")
+        self.jobs.submit("gearbox-sound", work.sound, (box, self.settings.listen_rpm), time_limit=120.0,
+                         on_done=self._heard, on_error=lambda m: st.say("gearbox-listen", m))
+        return True
+
+    def _heard(self, out: dict) -> None:
+        self.audio.param.update(object=out["signal"], sample_rate=int(out["rate"]))
+        self.listen_status.object = text_html(
+            f"The gearbox at {out['rpm']:g} rpm: {out['sone']:.3g} sone, peak {out['peak_pa']:.3g} Pa "
+            "(played normalised).")

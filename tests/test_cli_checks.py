@@ -1,0 +1,189 @@
+"""The ``rattle`` command checks everything before computing, and Ctrl-C leaves nothing behind.
+
+Bad arguments exit with status 2 and one line before any work (no cache entry is written, no
+orbit is searched).  ``serve`` and ``sweep --dask local`` are run as real processes in their
+own session, interrupted as a terminal's Ctrl-C does (SIGINT to the whole process group), and
+must end without a traceback and without leaving one process of that session alive.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+import rattle_cli.commands.continue_ as continue_command
+from rattle_cli.main import main
+
+ROOT = Path(__file__).resolve().parents[1]
+SWEEP = ["sweep", "--param", "lam", "--start", "1", "--stop", "2", "--num", "3",
+         "--transient", "10", "--record", "5"]
+
+
+@pytest.fixture(autouse=True)
+def private_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("RATTLE_CACHE_DIR", str(tmp_path / "cache"))
+    return tmp_path / "cache"
+
+
+def one_line_error(argv, capsys, *words):
+    code = main(argv)
+    out, err = capsys.readouterr()
+    assert code == 2, (code, out, err)
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("rattle: error:"), err
+    for w in words:
+        assert w in lines[0], (w, lines[0])
+    return lines[0]
+
+
+@pytest.mark.parametrize("argv, words", [
+    (SWEEP + ["--out", "{tmp}/a.npz", "--workers", "0"], ["--workers 0"]),
+    (SWEEP + ["--out", "{tmp}/a.npz", "--png", "x.jpg"], ["--png", ".png"]),
+    (["continue", "--lam", "3.3", "--ds-max", "-1", "--out", "{tmp}/c.csv"], ["--ds-max", "-1"]),
+    (["serve", "--address", "256.0.0.1"], ["--address", "256.0.0.1"]),
+    (["serve", "--address", "no such host!"], ["--address"]),
+    (["sound", "--lam", "3.3", "--periods", "1", "--excitation-hz", "0.0017", "--tail", "10",
+      "--rate", "384000", "--out", "{tmp}/s.wav"], ["samples"]),
+    (["sound", "--lam", "3.3", "--periods", "100000", "--out", "{tmp}/s.wav"], ["duration"]),
+    (["sound", "--lam", "3.3", "--rate", "1000", "--out", "{tmp}/s.wav"], ["sample_rate", "1000"]),
+    (["simulate", "--impacts", "{tmp}/x.csv", "--history", "{tmp}/x.csv"], ["same file"]),
+])
+def test_bad_arguments_exit_2_in_one_line_at_once(argv, words, tmp_path, capsys, private_cache):
+    """Each bad argument exits 2 with one line, within seconds, before anything is computed."""
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
+    t0 = time.monotonic()
+    one_line_error(argv, capsys, *words)
+    assert time.monotonic() - t0 < 10
+    assert not private_cache.exists() or not any(private_cache.iterdir())
+
+
+def test_the_cache_size_variable_is_checked_first(tmp_path, capsys, monkeypatch, private_cache):
+    """A RATTLE_CACHE_SIZE_MB that is not a size stops the command before it runs."""
+    monkeypatch.setenv("RATTLE_CACHE_SIZE_MB", "lots")
+    one_line_error(SWEEP + ["--out", str(tmp_path / "a.npz")], capsys, "RATTLE_CACHE_SIZE_MB", "lots")
+    assert not private_cache.exists()
+
+
+def test_derived_outputs_are_checked_before_the_sweep(tmp_path, capsys, private_cache):
+    """The PNG a sweep writes beside --out is checked first: a directory there stops it at once."""
+    (tmp_path / "a.png").mkdir()
+    one_line_error(SWEEP + ["--out", str(tmp_path / "a.npz")], capsys, "a.png", "directory")
+    assert not private_cache.exists()
+    (tmp_path / "b_summary.csv").mkdir()
+    one_line_error(SWEEP + ["--out", str(tmp_path / "b.csv"), "--no-png"], capsys, "b_summary.csv")
+
+
+@pytest.mark.parametrize("tail", ["_impacts", "_bifurcations"])
+def test_continuation_tables_are_checked_before_the_search(tail, tmp_path, capsys, monkeypatch):
+    """continue checks OUT_impacts and OUT_bifurcations before it looks for an orbit."""
+    def no_search(*a, **k):
+        raise AssertionError("an orbit was searched before the outputs were checked")
+    monkeypatch.setattr(continue_command.cont, "find_orbit", no_search)
+    (tmp_path / f"c{tail}.csv").mkdir()
+    one_line_error(["continue", "--lam", "3.3", "--out", str(tmp_path / "c.csv")], capsys,
+                   f"c{tail}.csv")
+
+
+# ----- Ctrl-C ---------------------------------------------------------------------------------
+
+def _environment(tmp_path) -> dict:
+    """The checkout's rattle_cli and app (as rattle_app) first on the path of a subprocess."""
+    shim = tmp_path / "shim"
+    shim.mkdir(exist_ok=True)
+    link = shim / "rattle_app"
+    if not link.exists():
+        link.symlink_to(ROOT / "app", target_is_directory=True)
+    return dict(os.environ, PYTHONPATH=os.pathsep.join([str(shim), str(ROOT)]),
+                RATTLE_CACHE_DIR=str(tmp_path / "cache"))
+
+
+def _session_processes(sid: int) -> list[str]:
+    found = []
+    for pid in os.listdir("/proc"):
+        if not pid.isdigit():
+            continue
+        try:
+            if os.getsid(int(pid)) == sid:
+                found.append(Path(f"/proc/{pid}/cmdline").read_text().replace("\0", " ")[:120])
+        except OSError:
+            pass
+    return found
+
+
+def _interrupt(proc, tmp_path, wait_for_line: str | None, after: float = 0.0) -> tuple[str, list]:
+    """SIGINT to the process group of ``proc`` (once its stdout printed ``wait_for_line``, or
+    ``after`` seconds); returns its stderr and whatever of its session is alive after."""
+    try:
+        if wait_for_line is not None:
+            deadline = time.monotonic() + 240
+            while wait_for_line not in proc.stdout.readline():
+                assert time.monotonic() < deadline and proc.poll() is None, "never got ready"
+        else:
+            time.sleep(after)
+        os.killpg(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=90)
+        deadline = time.monotonic() + 15
+        while _session_processes(proc.pid) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        return err, _session_processes(proc.pid)
+    finally:
+        for _ in _session_processes(proc.pid):
+            try:
+                os.killpg(proc.pid, signal.SIGKILL)
+            except OSError:
+                pass
+
+
+def _start(args, tmp_path):
+    return subprocess.Popen([sys.executable, "-m", "rattle_cli", *args], cwd=tmp_path,
+                            env=_environment(tmp_path), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+
+
+def _free_port() -> int:
+    import socket
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.mark.parametrize("extra", [[], ["--dask", "local"]], ids=["own-workers", "dask-local"])
+def test_ctrl_c_stops_serve_cleanly(extra, tmp_path):
+    """Ctrl-C to a serving dashboard: status 0, no traceback, no process of it left."""
+    proc = _start(["serve", "--port", str(_free_port()), *extra], tmp_path)
+    err, left = _interrupt(proc, tmp_path, "serving Rattle Explorer")
+    assert proc.returncode == 0, err
+    assert "Traceback" not in err, err
+    assert left == []
+
+
+@pytest.mark.parametrize("after", [1.5, 5.0])
+def test_ctrl_c_during_start_up_leaves_nothing(after, tmp_path):
+    """Ctrl-C while the server starts (imports, compiled kernels, worker processes) ends it
+    without a traceback and without a process left."""
+    proc = _start(["serve", "--port", str(_free_port())], tmp_path)
+    err, left = _interrupt(proc, tmp_path, None, after)
+    assert proc.returncode in (0, 130), err
+    assert "Traceback" not in err, err
+    assert left == []
+
+
+def test_ctrl_c_in_a_dask_sweep_ends_its_workers(tmp_path):
+    """Ctrl-C in ``sweep --dask local``: status 130, one line, the Dask workers gone.
+
+    (A Dask worker still importing when the signal arrives may print its own interrupted
+    import; the command itself prints none.)
+    """
+    proc = _start(["sweep", "--param", "lam", "--start", "0.5", "--stop", "4", "--num", "20000",
+                   "--transient", "2000", "--out", str(tmp_path / "d.npz"), "--no-cache",
+                   "--dask", "local"], tmp_path)
+    err, left = _interrupt(proc, tmp_path, None, 12.0)
+    assert proc.returncode == 130, err
+    assert "rattle: interrupted" in err
+    assert "rattle_cli" not in err and "rattle_core" not in err, err
+    assert left == []

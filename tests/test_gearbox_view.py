@@ -1,0 +1,85 @@
+"""The Gearbox tab without a browser: the sample's orders, a verdict and its variant in the
+background, the exports (CSV, an HTML report that escapes what users typed), listening, and
+uploads refused by size or content."""
+from __future__ import annotations
+
+import pandas as pd
+import pytest
+from conftest import wait_for
+
+from app.work import gearbox as work
+
+pytestmark = pytest.mark.timeout(600)
+
+
+@pytest.fixture()
+def view(dash, tmp_path, monkeypatch):
+    monkeypatch.setenv("RATTLE_CACHE_DIR", str(tmp_path))
+    v = dash.gearbox
+    v.settings.param.update(rpm_num=5, transient=80, record=30)
+    return v
+
+
+def test_sample_verdict_variant_and_exports(view):
+    """The sample's orders arrive; a verdict with a drag +50 % variant arrives with its onsets;
+    the variant never rattles earlier than the baseline; the CSV holds both cases; the report
+    is one HTML file with its pictures inside and the gear names escaped."""
+    view.measure(None)
+    wait_for(lambda: view.order_map is not None, 120, "the sample's orders")
+    assert list(view.order_map.orders) == [2.0, 4.0, 6.0]
+    df = view.table.value.copy()
+    df.loc[0, "name"] = "<script>alert(1)</script>"
+    view.table.value = df
+    view.settings.param.update(variant="drag", drag_pct=50.0)
+    assert view.run()
+    wait_for(lambda: view.base is not None, 300, "the verdict")
+    assert view.revision == 1 and view.variant is not None
+    for name, onset in view.base.onsets.items():
+        later = view.variant.onsets[name]
+        assert not (later < onset), (name, onset, later)  # more drag: contact holds longer
+    csv = pd.read_csv(view.csv())
+    assert set(csv["case"]) == {"baseline", "drag torque +50 %"}
+    assert len(csv) == 2 * 5 * 4
+    html = view.report
+    assert html.startswith("<!DOCTYPE html>") and html.count("data:image/png;base64,") >= 3
+    assert "<script>alert(1)</script>" not in html and "&lt;script&gt;alert(1)&lt;/script&gt;" in html
+    assert view.listen()
+    wait_for(lambda: view.audio.object is not None, 120, "the gearbox sound")
+    assert len(view.audio.object) == int(work.LISTEN_SECONDS * 48_000)
+
+
+def test_bad_requests_are_refused_with_messages(view):
+    """No measurement: the run is refused; a bad measurement upload names its line; a bad
+    gear value names its row; an oversized upload is refused before any work."""
+    assert not view.run()
+    assert "measurement" in view.state.messages["gearbox-gears"]
+    view.measure(b"time_s,speed_rpm\n0,1000\n0.001,1000\n0.0005,1000\n" + b"0.1,1000\n" * 50)
+    wait_for(lambda: "gearbox-measure" in view.state.messages, 120, "the refusal")
+    assert "the uploaded file" in view.state.messages["gearbox-measure"]
+    assert "line 4" in view.state.messages["gearbox-measure"]
+    view._on_measurement(type("E", (), {"new": b"x" * (work.MAX_MEASUREMENT_BYTES + 1)})())
+    assert "allowed size" in view.state.messages["gearbox-measure"]
+    view.measure(None)
+    wait_for(lambda: view.order_map is not None, 120, "the sample's orders")
+    df = view.table.value.copy()
+    df.loc[1, "inertia_kgm2"] = -1.0
+    view.table.value = df
+    assert not view.run()
+    assert "row 2" in view.state.messages["gearbox-gears"]
+
+
+def test_an_uploaded_gearbox_file_fills_the_table_and_opens_no_file(view):
+    """A TOML upload fills the gear table and the excitation settings; a measurement path in it
+    is never opened on the server."""
+    text = (b'[excitation]\nmeasurement = "/etc/passwd"\nengine_order = 2\nharmonics = 2\n'
+            b'[[gear]]\nname = "only"\ninertia_kgm2 = 1e-4\nbase_radius_m = 0.03\n'
+            b'drag_torque_Nm = 0.02\nbacklash_um = 50\n')
+    view._on_toml(type("E", (), {"new": text})())
+    wait_for(lambda: "gearbox-gears" in view.state.messages, 120, "the refusal")
+    assert "names no file" in view.state.messages["gearbox-gears"]
+    view.measure(None)
+    wait_for(lambda: view.order_map is not None, 120, "the sample's orders")
+    view.state.clear("gearbox-gears")
+    view._on_toml(type("E", (), {"new": text})())
+    wait_for(lambda: list(view.table.value["name"]) == ["only"], 120, "the table")
+    assert view.settings.harmonics == 2

@@ -1,0 +1,48 @@
+"""Browser test of the Gearbox tab: the sample's orders, a verdict with a variant computed in
+the background, its CSV downloaded, a bad upload refused with its line, the gearbox heard."""
+from __future__ import annotations
+
+import pytest
+from playwright.sync_api import expect
+from test_ui import open_dashboard
+
+pytestmark = [pytest.mark.ui, pytest.mark.timeout(600)]
+
+
+def set_input(page, css: str, value: str) -> None:
+    box = page.locator(f"{css} input").first
+    box.fill(value)
+    box.press("Enter")
+
+
+def test_gearbox_tab_from_sample_to_verdict(page, dashboard_server, tmp_path, monkeypatch):
+    """Sample → orders; 4 speeds with a drag +50 % variant → onsets in the status and a CSV of
+    2 × 4 × 4 rows; a CSV with time going back → the message names the line; Listen → audio."""
+    monkeypatch.setenv("RATTLE_CACHE_DIR", str(tmp_path / "cache"))
+    errors = open_dashboard(page, dashboard_server)
+    page.locator(".bk-tab", has_text="Gearbox").first.click()
+    page.locator(".gb-sample button").first.click()
+    expect(page.locator(".gb-measure-status").first).to_contain_text("rpm bins", timeout=120_000)
+    for css, value in ((".gb-rpm-num", "4"), (".gb-transient", "60"), (".gb-record", "30")):
+        set_input(page, css, value)
+    page.locator(".gb-variant select").first.select_option(label="drag torque +/- %")
+    set_input(page, ".gb-drag-pct", "50")
+    page.wait_for_timeout(500)
+    page.locator(".gb-run button").first.click()
+    expect(page.locator(".gb-status").first).to_contain_text("Variant (drag torque +50 %)",
+                                                             timeout=300_000)
+    expect(page.locator(".gb-status").first).to_contain_text("5th idler")
+    with page.expect_download(timeout=60_000) as dl:
+        page.locator(".gb-csv button").first.click()
+    text = open(dl.value.path(), encoding="utf-8").read().splitlines()
+    assert text[0].startswith("gear,rpm,regime,impacts_per_s,intensity,loudness_sone")
+    assert len(text) == 1 + 2 * 4 * 4
+    bad = tmp_path / "bad.csv"
+    bad.write_text("time_s,speed_rpm\n0,1000\n0.001,1000\n0.0005,1000\n" + "0.1,1000\n" * 50)
+    page.locator(".gb-measurement input[type=file]").first.set_input_files(str(bad))
+    expect(page.locator(".msg-gearbox-measure").first).to_contain_text("line 4", timeout=120_000)
+    page.locator(".gb-listen button").first.click()
+    expect(page.locator(".gb-listen-status").first).to_contain_text("sone", timeout=120_000)
+    assert page.locator(".gb-audio audio").first.get_attribute("src")
+    assert errors == []
+    assert dashboard_server["log"].tracebacks() == []

@@ -1,0 +1,100 @@
+"""Browser tests of the Poincaré map: its axes frame each run, and a click starts the gear there.
+
+The figure's ranges and the page's URL are read from the browser (the page's Bokeh document),
+and compared with the section's points computed here by the core for the same parameters.
+"""
+from __future__ import annotations
+
+from urllib.parse import parse_qs, urlparse
+
+import numpy as np
+import pytest
+
+from rattle_core import RattleParams, simulate
+from rattle_core.model.phases import paper_to_core_phases
+from test_ui import box, open_dashboard, wait_box
+from test_ui_fixes import fig
+
+pytestmark = [pytest.mark.ui, pytest.mark.timeout(600)]
+
+SECTION_RANGE = """() => { const m = Bokeh.documents[0].get_model_by_name('section');
+  return m == null ? null : [m.x_range.start, m.x_range.end, m.y_range.start, m.y_range.end]; }"""
+
+
+def wait_framed(page, x, y, timeout: float = 60_000) -> list[float]:
+    """Wait until the section's ranges hold every point (x, y) and are at most about twice the
+    points' spread (plus the unit margin around a single point); return the ranges."""
+    lo_x, hi_x, lo_y, hi_y = (float(v) for v in (x.min(), x.max(), y.min(), y.max()))
+    wx, wy = (2 * max(float(np.ptp(v)), 1e-3) + 1.0 for v in (x, y))
+    page.wait_for_function(f"""() => {{ const r = ({SECTION_RANGE})(); if (r == null) return false;
+        return r[0] <= {lo_x} && {hi_x} <= r[1] && r[2] <= {lo_y} && {hi_y} <= r[3]
+            && r[1] - r[0] <= {wx} && r[3] - r[2] <= {wy}; }}""", timeout=timeout)
+    return page.evaluate(SECTION_RANGE)
+
+
+def paper(lam: float, h2: float, phi2: float = 0.0, periods: int = 200) -> tuple[np.ndarray, np.ndarray]:
+    """The absolute Poincaré section (x, ẋ) at strobe 0 with the page's default run settings,
+    computed by the core (phases in the paper's convention, as the page takes them)."""
+    p = RattleParams(lam=lam, r=0.65, j=8.0, amplitudes=(1.0, h2),
+                     phases_deg=tuple(paper_to_core_phases([0.0, phi2])))
+    tr = simulate(p, periods=periods, transient=300)
+    return tr.strobe_x, tr.strobe_v
+
+
+def test_the_poincare_map_frames_each_new_run(page, dashboard_server):
+    """Fig 7 from ?lam=1.2&h2=0, then H₂/H₁ = 5: each time the axes hold every point, tightly."""
+    open_dashboard(page, dashboard_server, "?lam=1.2&h2=0")
+    page.wait_for_function(f"() => ({SECTION_RANGE})() != null", timeout=60_000)
+    page.locator(".preset-Fig7 button").first.click()
+    x, y = paper(3.3, 0.25, 45.0, periods=5000)
+    r = wait_framed(page, x, y)
+    assert r[1] - r[0] > 3.0  # the strange attractor, not the first run's 1-wide box
+    wait_box(page, "h2", 0.25)
+    b = box(page, "h2")
+    b.fill("5")
+    b.press("Enter")
+    x, y = paper(3.3, 5.0, 45.0, periods=5000)
+    assert y.max() < -10  # the points lie near ẋ ≈ −13.9, far outside the last view
+    wait_framed(page, x, y)
+
+
+def test_reset_returns_to_the_current_runs_frame(page, dashboard_server):
+    """After a run changes the frame, a wheel zoom and the Reset tool come back to the new frame,
+    not to the page's first ranges; the next run frames its own data again."""
+    open_dashboard(page, dashboard_server, "?lam=1.2&h2=0")
+    page.wait_for_function(f"() => ({SECTION_RANGE})() != null", timeout=60_000)
+    b = box(page, "lam")
+    b.fill("2.5")
+    b.press("Enter")
+    x, y = paper(2.5, 0.0)
+    framed = wait_framed(page, x, y)
+    c = fig(page, "section", 0.5 * (framed[0] + framed[1]), 0.5 * (framed[2] + framed[3]))
+    page.mouse.move(c["sx"], c["sy"])
+    page.mouse.wheel(0, -400)
+    page.wait_for_function(f"() => ({SECTION_RANGE})()[1] - ({SECTION_RANGE})()[0] < {0.9 * (framed[1] - framed[0])!r}",
+                           timeout=20_000)
+    page.evaluate("""() => { const m = Bokeh.documents[0].get_model_by_name('section');
+        m.toolbar.tools.find(t => t.type === 'ResetTool').do.emit(); }""")
+    page.wait_for_function(f"""() => {{ const r = ({SECTION_RANGE})();
+        return [{framed[0]!r}, {framed[1]!r}, {framed[2]!r}, {framed[3]!r}]
+            .every((v, i) => Math.abs(v - r[i]) < 1e-9 * (1 + Math.abs(v))); }}""", timeout=20_000)
+    b.fill("1.2")
+    b.press("Enter")
+    x, y = paper(1.2, 0.0)
+    wait_framed(page, x, y)
+
+
+def test_a_click_between_the_teeth_starts_the_gear_there(page, dashboard_server):
+    """At ?lam=2.5&h2=0, a click on the map sets x₀ and ẋ₀ to the clicked point, in the URL too."""
+    open_dashboard(page, dashboard_server, "?lam=2.5&h2=0")
+    x, y = paper(2.5, 0.0)
+    r = wait_framed(page, x, y)
+    gx, gy = r[0] + 0.3 * (r[1] - r[0]), r[2] + 0.7 * (r[3] - r[2])
+    assert 0.0 < gx < 8.0  # between the teeth: y(0) = 0 and y(0) + j = 8
+    p = fig(page, "section", gx, gy)
+    page.mouse.click(p["sx"], p["sy"])
+    page.wait_for_function("() => /[?&]x0=[-0-9]/.test(window.location.search)", timeout=20_000)
+    q = parse_qs(urlparse(page.url).query)
+    assert float(q["x0"][0]) == pytest.approx(gx, abs=0.02 * (r[1] - r[0]))
+    assert float(q["v0"][0]) == pytest.approx(gy, abs=0.02 * (r[3] - r[2]))
+    wait_box(page, "x0", float(q["x0"][0]), tol=1e-6)
