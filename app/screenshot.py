@@ -81,7 +81,8 @@ def main() -> int:
             if args.continuation:
                 page.locator(".cont-button button").first.click()
                 page.wait_for_function(BRANCH_READY, timeout=300_000)
-            if args.gearbox:
+            if args.gearbox:  # the tab's four plots stand one below the other
+                page.set_viewport_size({"width": 1500, "height": 1500})
                 page.locator(".bk-tab", has_text="Gearbox").first.click()
                 page.locator(".gb-sample button").first.click()
                 page.locator(".gb-measure-status").filter(has_text="rpm bins").first.wait_for(timeout=120_000)
