@@ -89,7 +89,7 @@ def main() -> int:
                 page.locator(".gb-variant select").first.select_option(label="drag torque +/- %")
                 page.wait_for_timeout(500)
                 page.locator(".gb-run button").first.click()
-                page.locator(".gb-status").filter(has_text="Variant").first.wait_for(timeout=600_000)
+                page.locator(".gb-status").filter(has_text="Verdict (").first.wait_for(timeout=600_000)
             page.wait_for_timeout(1500)  # let the last renders and the badge settle
             os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
             if args.continuation:
