@@ -68,7 +68,7 @@ def test_draw_the_atlas_over_a_regime_map(page, dashboard_server):
                                   .glyph.line_dash""")
     assert dash != page.evaluate("""() => Bokeh.documents[0]
                                  .get_model_by_name('atlas-period_doubling').glyph.line_dash""")
-    legend = page.locator(".atlas-legend").first.inner_text()
+    legend = " ".join(page.locator(".atlas-legend span").all_inner_texts())
     assert "period doubling" in legend and "contact boundary" in legend and "grazing" in legend
     page.wait_for_function("() => window.location.search.includes('atlas=true')", timeout=20_000)
     page.locator(".atlas-hide button").first.click()

@@ -31,7 +31,7 @@ from .continuation import core_bounds, swept
 PARAMS2 = {"Λ": "lam", "r": "r", "j": "j", "H₂/H₁": "h2", "φ₂ [°]": "phi2"}
 RANGES2 = {"lam": (0.5, 4.0), "r": (0.3, 0.95), "j": (2.0, 16.0), "h2": (0.0, 1.0),
            "phi2-paper": (0.0, 360.0), "phi2-core": (-180.0, 180.0)}
-KINDS = ("fold", "period_doubling", "grazing", "stick_onset")
+KINDS = ("fold", "period_doubling", "grazing", "stick_onset", "stick_end")
 #: A click lands on a mark when it is this close, as a share of the diagram's range.
 CLICK_TOLERANCE = 0.004
 

@@ -8,7 +8,7 @@ A regime map shows pixels; the atlas draws the boundaries between them exactly. 
 2. takes a few rows ``y = const`` of the window and, on each, the periodic orbits that
    simulations from a few values of ``x`` settle on; follows each in ``x`` across the window
    (:func:`continue_orbit`), and the period-doubled branches born on the way;
-3. follows every fold, period doubling, grazing and onset of sticking found in ``y``
+3. follows every fold, period doubling, grazing, onset and end of sticking found in ``y``
    (:func:`continue_bifurcation`), unless a curve already drawn passes through it.
 
 What the seeds never reach (an orbit no simulation from them settles on) is not drawn; more
@@ -33,7 +33,7 @@ from .simulated import find_orbit
 from .twoparam import BifurcationCurve
 
 #: Kinds of one-parameter bifurcations the atlas follows in the second parameter.
-ATLAS_KINDS = ("fold", "period_doubling", "grazing", "stick_onset")
+ATLAS_KINDS = ("fold", "period_doubling", "grazing", "stick_onset", "stick_end")
 # what ends one seed or one curve of the atlas without ending the atlas: no orbit there, a
 # branch that cannot be followed, an impact reaching zero speed inside the shooting equations
 _FAILURES = (ValueError, ContinuationError, ZeroDivisionError, FloatingPointError,
@@ -216,7 +216,8 @@ def _bifurcations_across(orb, x_name: str, x_window, physical, cancel) -> list:
             continue
         branches += 1
         for b in res.bifurcations:
-            if b.kind in ATLAS_KINDS and b._restart is not None and b._restart[1] is not None:
+            if b.kind == "stick_end" or (b.kind in ATLAS_KINDS and b._restart is not None
+                                         and b._restart[1] is not None):
                 out.append(b)
             if b.kind == "period_doubling" and b.orbit.period <= 2:
                 todo.append((b, 0))

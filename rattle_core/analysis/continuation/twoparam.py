@@ -32,6 +32,7 @@ CURVE_KINDS = {
     "period_doubling": "period-doubling curve: a multiplier is −1",
     "grazing": "grazing curve: a flight touches a wall",
     "stick_onset": "onset-of-sticking curve: an impact on a pushing wall slows to v_stick",
+    "stick_end": "end-of-sticking curve: the stick phase shrinks to nothing",
     "contact": "contact boundary Λ_c = 1/max(−ÿ): below it the gear never leaves the tooth",
 }
 
