@@ -16,7 +16,6 @@ rows and columns of seeds find more.
 """
 from __future__ import annotations
 
-import math
 import re
 import threading
 from typing import Any, Callable, Sequence
@@ -24,7 +23,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from ...model.params import RattleParams, check_range
-from .bifcurve import contact_bifurcation, continue_bifurcation
+from .bifcurve import _low_high, contact_bifurcation, continue_bifurcation
 from .driver import continue_orbit
 from .orbits import ContinuationError
 from .parameter import _KIND_LAM, _Param
@@ -92,7 +91,7 @@ def atlas(params: RattleParams, x_name: str, x_range: Sequence[float], y_name: s
             spec = _Param.make(name, params, physical if name in ("rpm", "drag_torque") else None)
         except ValueError as exc:
             raise ValueError(f"the atlas has no curves over {name!r}: {exc}") from None
-        lo, hi = _range(rng, label)
+        lo, hi = _low_high(rng, label)
         specs.append((spec, lo, hi))
     (sx, x0, x1), (sy, y0, y1) = specs
     done = [0]
@@ -182,16 +181,6 @@ def _seed(params: RattleParams, physical, values: dict):
         if n not in phys_fields:
             p = p.with_value(n, v)
     return p, type(physical).from_dimensionless(p, held, solve_for="drag_torque")
-
-
-def _range(rng, label: str) -> tuple[float, float]:
-    try:
-        lo, hi = (float(v) for v in rng)
-    except (TypeError, ValueError):
-        raise ValueError(f"{label} must be two numbers (low, high), got {rng!r}") from None
-    if not (math.isfinite(lo) and math.isfinite(hi)) or lo >= hi:
-        raise ValueError(f"{label} = {rng!r} must be two finite numbers, low < high")
-    return lo, hi
 
 
 def _grid(lo: float, hi: float, n: int) -> np.ndarray:

@@ -17,6 +17,7 @@ import numpy as np
 
 from .events import LOCATE_TOL
 from .plane import _Plane
+from .results import _limit
 from .sticking import _handle, _signature, _stick_at, _stick_margin
 
 
@@ -73,17 +74,13 @@ def _locate_end(plane, q2, a, b, handle, sig, max_eval: int = 60):
 def _stick_end_side(plane, X0, orb0, inside: float, sgn: float, bounds_q, dq, dq_min, dq_max,
                     count, max_points, cancel):
     """One side of the end-of-sticking curve from ``(q1, q2) = X0`` towards ``sgn`` in q₂."""
-    from .results import _is_cancelled
     (a1, b1), (a2, b2) = bounds_q
     sig = _signature(orb0)
     pts = [(np.array(X0, dtype=float), orb0)]
     status = message = ""
     while True:
-        if count[0] >= max_points:
-            status, message = "max_points", f"stopped at max_points = {max_points}"
-            break
-        if _is_cancelled(cancel):
-            status, message = "cancelled", f"cancelled after {count[0]} points"
+        status, message = _limit(count[0], max_points, cancel)
+        if status:
             break
         (q1, q2), orb = pts[-1]
         q2n = q2 + sgn * dq
