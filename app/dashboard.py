@@ -20,6 +20,7 @@ from .views.diagram import DiagramView
 from .views.explorer import RegimeView, SectionView
 from .views.gearbox import GearboxView
 from .views.maps import MapsView
+from .views.motion import MotionView
 from .views.noise import NoiseView
 from .work.threads import HV_LOCK
 from .session import Session
@@ -51,6 +52,7 @@ class Dashboard:
         self.noise = NoiseView(state=s, jobs=jobs)
         self.time_history = TimeHistoryView(state=s)
         self.section = SectionView(state=s)
+        self.motion = MotionView(state=s)
         self.diagram = DiagramView(state=s, jobs=jobs)
         self.continuation = ContinuationView(state=s, jobs=jobs)
         self.sound = SoundView(state=s)
@@ -59,12 +61,13 @@ class Dashboard:
         self.atlas = AtlasView(state=s, jobs=jobs, maps=self.maps)
         self.gearbox = GearboxView(state=s, jobs=jobs)
         self.views = [self.controls, self.units, self.regime, self.noise, self.time_history,
-                      self.section,
+                      self.section, self.motion,
                       self.diagram, self.continuation, self.curve, self.sound, self.maps,
                       self.atlas, self.gearbox]
         explorer = pn.Column(
             self.regime, self.noise,
             pn.Row(self.time_history, self.units.table, sizing_mode="stretch_width"),
+            self.motion,
             pn.Row(self.section, pn.Column(self.diagram, self.continuation, self.curve,
                                            sizing_mode="stretch_width"),
                    sizing_mode="stretch_width"),

@@ -32,8 +32,8 @@ def test_sample_verdict_variant_and_exports(view):
     view.table.value = df
     view.settings.param.update(variant="drag", drag_pct=50.0)
     assert view.run()
-    wait_for(lambda: view.base is not None, 300, "the verdict")
-    assert view.revision == 1 and view.variant is not None
+    wait_for(lambda: view.revision == 1, 300, "the verdict")  # set last, after the results
+    assert view.base is not None and view.variant is not None
     for name, onset in view.base.onsets.items():
         later = view.variant.onsets[name]
         assert not (later < onset), (name, onset, later)  # more drag: contact holds longer
