@@ -72,10 +72,19 @@ def name_saved_png(fig: Any, stem: str) -> None:
             tool.filename = name
 
 
+def full_screen(fig: Any) -> None:
+    """Give ``fig`` a full-screen button (a projector shows one plot large)."""
+    from bokeh.models import FullscreenTool
+    if not any(isinstance(t, FullscreenTool) for t in fig.toolbar.tools):
+        fig.add_tools(FullscreenTool())
+
+
 def save_as(get_stem: Callable[[], str]) -> Callable:
-    """A HoloViews hook naming the plot's saved PNG ``get_stem()`` (see :func:`name_saved_png`)."""
+    """A HoloViews hook naming the plot's saved PNG ``get_stem()`` (see :func:`name_saved_png`)
+    and offering it full screen."""
     def hook(plot, element) -> None:
         name_saved_png(plot.state, get_stem())
+        full_screen(plot.state)
     return hook
 
 

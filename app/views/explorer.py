@@ -163,7 +163,8 @@ class SectionView(pn.viewable.Viewer):
 
 
 def start_from_section(state: ExplorerState, x: float, y: float) -> bool:
-    """Start the gear at a clicked section point: (x₀, ẋ₀) at t₀ = the strobe phase."""
+    """Start the gear at a clicked section point: (x₀, ẋ₀) at t₀ = the strobe phase; with the
+    twin trajectory on and a start already clicked, the twin's start."""
     run = state.result
     if run is None:
         return False
@@ -182,6 +183,10 @@ def start_from_section(state: ExplorerState, x: float, y: float) -> bool:
                            f"at t₀ = {t0:.4g}: click between the teeth.")
         return False
     state.clear("start")
+    if state.twin and state.x0 is not None and abs(state.t0 - round(t0, 12)) < 1e-9:
+        # a second click, with the twin on: the twin starts there, beside the first gear
+        state.param.update(twin_x0=round(x0, 10), twin_v0=round(v0, 10))
+        return True
     state.param.update(x0=round(x0, 10), v0=round(v0, 10), t0=round(t0, 12))
     return True
 
@@ -193,13 +198,16 @@ class RegimeView(pn.viewable.Viewer):
 
     def __init__(self, **params: Any):
         super().__init__(**params)
-        self.badge = pn.pane.HTML("", css_classes=["regime-badge"], sizing_mode="stretch_width")
-        self.metrics = pn.pane.HTML("", css_classes=["rattle-metrics"], min_width=330)
+        self.badge = pn.pane.HTML("", css_classes=["regime-badge"], min_width=300,
+                                  styles={"flex": "1 1 300px"})
+        self.metrics = pn.pane.HTML("", css_classes=["rattle-metrics"], min_width=330,
+                                    styles={"flex": "1 1 330px"})
         self.state.param.watch(self._draw, "result")
         self._draw()
 
     def __panel__(self):
-        return pn.Row(self.badge, self.metrics, sizing_mode="stretch_width")
+        # a long metrics table goes below the badge rather than squeezing it to nothing
+        return pn.FlexBox(self.badge, self.metrics, flex_wrap="wrap", sizing_mode="stretch_width")
 
     def _draw(self, *_: Any) -> None:
         run = self.state.result
