@@ -193,7 +193,8 @@ class ExplorerState(Said):
     # ----- bifurcation curves ------------------------------------------------------------------
     atlas = Flag(False, label="atlas", doc="the exact bifurcation curves drawn over the map")
     curve_kind = param.Selector(default="", objects=["", "fold", "period_doubling", "grazing",
-                                                     "stick_onset"], label="curve of",
+                                                     "stick_onset", "stick_end"],
+                                label="curve of",
                                 doc="the kind of the branch's bifurcation whose curve is traced")
     curve_at = OptionalNumber(None, allow_None=True, bounds=(-1e6, 1e6), label="curve from",
                               doc="where that bifurcation is (the diagram's units)")

@@ -48,7 +48,7 @@ def test_draw_the_atlas_over_a_lam_by_r_map(dash):
     on_c = np.abs(pd[:, 0] - lam_pd(pd[:, 1])) < 1e-8
     assert on_c.sum() >= 10
     assert abs(pd[on_c, 1].min() - 0.4) < 1e-9 and abs(pd[on_c, 1].max() - 0.8) < 1e-9
-    assert "curves" in atlas.status.object and "contact boundary" in atlas.legend.object
+    assert "curves" in atlas.run.status.object and "contact boundary" in atlas.legend.object
     s.atlas = False
     assert atlas.curves is None and len(paths(atlas.element[()], 2)) == 0
 
@@ -74,7 +74,8 @@ def test_atlas_job_reloads_from_the_cache_and_draws_paper_phases(tmp_path):
         core = np.radians(-phi_paper - 90.0)  # the paper's φ₂ in the core's convention
         peak = np.max(np.cos(t) + np.cos(2 * t - core))
         assert abs(lam - 1.0 / peak) < 1e-6
-    assert len(curves_overlay(c).values()) == 6
+    from rattle_core.analysis.vocabulary import CURVE_STYLES
+    assert len(curves_overlay(c).values()) == len(CURVE_STYLES) + 1  # a path per kind, points
 
 
 def test_a_click_on_a_marked_period_doubling_traces_its_curve(dash):
@@ -96,6 +97,6 @@ def test_a_click_on_a_marked_period_doubling_traces_its_curve(dash):
     xy = paths(view.element[()], 2)
     assert len(xy) >= 10 and np.max(np.abs(xy[:, 0] - lam_pd(xy[:, 1]))) < 1e-8
     assert xy[:, 1].min() < 0.35 and xy[:, 1].max() > 0.9
-    assert "Traced in r" in view.status.object
+    assert "Traced in r" in view.run.status.object
     s.param.update(curve_kind="", curve_at=None)
     assert view.curves is None

@@ -281,3 +281,13 @@ def test_cli_gearbox_writes_the_verdict_and_refuses_bad_files(tmp_path):
                               str(tmp_path / "v.csv")], capture_output=True, text=True, cwd=ROOT,
                        timeout=600, env=env)
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "inertia_kgm2" in r.stderr
+
+
+def test_verdict_on_dask_equals_the_local_one(box):
+    """The same verdict run as tasks on a two-worker Dask LocalCluster gives the same table."""
+    from rattle_core.batch.executor import dask_session
+    rpm = np.array([1100.0, 1900.0, 2700.0])
+    here = verdict(box, rpm, transient=100, record=40, chunk_speeds=1)
+    with dask_session("local", 2) as client:
+        there = verdict(box, rpm, transient=100, record=40, chunk_speeds=1, executor=client)
+    assert there.table.equals(here.table)

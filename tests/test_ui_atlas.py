@@ -68,7 +68,7 @@ def test_draw_the_atlas_over_a_regime_map(page, dashboard_server):
                                   .glyph.line_dash""")
     assert dash != page.evaluate("""() => Bokeh.documents[0]
                                  .get_model_by_name('atlas-period_doubling').glyph.line_dash""")
-    legend = page.locator(".atlas-legend").first.inner_text()
+    legend = " ".join(page.locator(".atlas-legend span").all_inner_texts())
     assert "period doubling" in legend and "contact boundary" in legend and "grazing" in legend
     page.wait_for_function("() => window.location.search.includes('atlas=true')", timeout=20_000)
     page.locator(".atlas-hide button").first.click()
@@ -92,21 +92,22 @@ MARK_XY = """() => {
 
 def test_a_click_on_a_marked_period_doubling_traces_its_curve(page, dashboard_server):
     """Regime C at Λ = 1.2, branch continued: a click on its PD mark traces the doubling in
-    r (chosen from the list): the curve is Λ_PD(r) to 1e-8, and the URL holds it."""
+    j (chosen from the list): the curve is Λ = Λ_PD to 1e-8 from j = 16 down to where the
+    flight reaches the reverse flank (j = 5.75), and the URL holds it."""
     page.set_default_navigation_timeout(120_000)
     errors = open_dashboard(page, dashboard_server, "?lam=1.2&h2=0&cont=true&cont_from=1.2")
     wait_bif(page)
     page.locator(".cont-status div", has_text="Continued branch").first.wait_for(timeout=120_000)
-    page.locator(".ctl-curve_param2 select").first.select_option(label="r")
+    page.locator(".ctl-curve_param2 select").first.select_option(label="j")
     page.wait_for_timeout(1500)  # the branch's marks are drawn
     target = page.evaluate(MARK_XY)
     assert abs(target["value"] - 1.2394) < 1e-3
     page.mouse.click(target["x"], target["y"])
-    page.locator(".curve-status", has_text="Traced in r").first.wait_for(timeout=180_000)
+    page.locator(".curve-status", has_text="Traced in j").first.wait_for(timeout=180_000)
     page.wait_for_function(f"() => ({FINITE})('curve-period_doubling') > 0", timeout=60_000)
     x, y = finite_points(page.evaluate(PATHS, "curve-period_doubling"))
-    assert len(x) >= 10 and np.max(np.abs(x - lam_pd(y))) < 1e-8
-    assert y.min() < 0.35 and y.max() > 0.9
+    assert len(x) >= 5 and np.max(np.abs(x - lam_pd(0.65))) < 1e-8
+    assert abs(y.min() - 5.752988199) < 1e-6 and abs(y.max() - 16.0) < 1e-9
     search = page.evaluate("() => window.location.search")
-    assert "curve=period_doubling" in search and "curve_in=r" in search
+    assert "curve=period_doubling" in search and "curve_in=j" in search
     assert errors == []

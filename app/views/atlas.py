@@ -20,6 +20,7 @@ import param
 
 from ..core import CURVE_STYLES, axes_supported
 from ..state import ExplorerState
+from ..ui.job_panel import JobPanel
 from ..ui.widgets import message
 from ..work.atlas import Curves, atlas_curves, from_job, to_core
 
@@ -79,21 +80,14 @@ class AtlasView(pn.viewable.Viewer):
     def __init__(self, **params: Any):
         super().__init__(**params)
         self.curves: Curves | None = None
-        self.job: Any = None
-        self._key: tuple | None = None
+        self.run = JobPanel(self.jobs, "atlas", "atlas")
         self.draw_button = pn.widgets.Button(label="Draw the atlas", color="primary",
                                              css_classes=["atlas-draw"], width=150)
         self.hide_button = pn.widgets.Button(label="Hide the atlas", width=120,
                                              css_classes=["atlas-hide"])
-        self.cancel_button = pn.widgets.Button(label="Cancel", disabled=True, width=80,
-                                               css_classes=["atlas-cancel"])
         self.draw_button.on_click(lambda e: self.draw())
         self.hide_button.on_click(lambda e: self.state.param.update(atlas=False))
-        self.cancel_button.on_click(lambda e: self.cancel("Atlas cancelled."))
-        self.progress = pn.indicators.Progress(value=0, max=100, visible=False, bar_color="info",
-                                               height=14, sizing_mode="stretch_width",
-                                               css_classes=["atlas-progress"])
-        self.status = pn.pane.HTML("", css_classes=["atlas-status"], sizing_mode="stretch_width")
+        self.run.cancel_button.on_click(lambda e: self.cancel("Atlas cancelled."))
         self.legend = pn.pane.HTML(legend_html(), css_classes=["atlas-legend"],
                                    sizing_mode="stretch_width")
         self.element = hv.DynamicMap(self._element, streams=[hv.streams.Params(self, ["revision"])])
@@ -103,9 +97,9 @@ class AtlasView(pn.viewable.Viewer):
         self._update()
 
     def __panel__(self):
-        return pn.Column(pn.Row(self.draw_button, self.hide_button, self.cancel_button),
-                         message(self.state, "atlas"), self.progress, self.status, self.legend,
-                         sizing_mode="stretch_width", css_classes=["atlas"])
+        return pn.Column(pn.Row(self.draw_button, self.hide_button, self.run.cancel_button),
+                         message(self.state, "atlas"), self.run.progress, self.run.status,
+                         self.legend, sizing_mode="stretch_width", css_classes=["atlas"])
 
     def draw(self) -> None:
         """The button: draw the atlas over the map shown (and over the maps to come)."""
@@ -140,53 +134,27 @@ class AtlasView(pn.viewable.Viewer):
         s = self.state
         self.hide_button.visible = bool(s.atlas)
         if not s.atlas:
-            if self._key is not None or self.curves is not None:
+            if self.run.key is not None or self.curves is not None:
                 self._drop()
             return
         req = self.request()
         if req is None:
             return
         key = (repr(req[0].canonical()), repr(req[1]), *req[2:])
-        if key == self._key:
+        if key == self.run.key:
             return
-        self._key = key
         s.clear("atlas")
-        self.status.object = _text(f"Following the bifurcation curves over {req[2]} × {req[4]}…")
-        self.progress.param.update(value=0, visible=True)
-        try:
-            self.job = self.jobs.submit(
-                "atlas", atlas_curves, req[:6], time_limit=300.0,
-                on_progress=lambda f: self._progress(key, f),
-                on_done=lambda out: self._done(key, out, req), on_error=lambda m: self._error(key, m))
-        except RuntimeError as exc:
-            self._error(key, str(exc))
-            return
-        self.cancel_button.disabled = False
+        self.run.submit(key, atlas_curves, req[:6],
+                        f"Following the bifurcation curves over {req[2]} × {req[4]}…", 300.0,
+                        lambda out: self._done(out, req), self._error)
 
-    def _progress(self, key: tuple, fraction: float) -> None:
-        if key == self._key:
-            self.progress.value = int(100 * fraction)
-
-    def _done(self, key: tuple, out: dict, req: tuple) -> None:
-        if key != self._key:
-            return
-        self._finished()
+    def _done(self, out: dict, req: tuple) -> None:
         self.curves = from_job(out, req[6], req[2], req[4])
-        self.status.object = _text("Atlas: " + self.curves.summary())
+        self.run.say("Atlas: " + self.curves.summary())
         self.revision += 1
 
-    def _error(self, key: tuple, msg: str) -> None:
-        if key != self._key:
-            return
-        self._finished()
-        self._key = None
-        self.status.object = ""
+    def _error(self, msg: str) -> None:
         self.state.say("atlas", f"The atlas could not be drawn: {msg}")
-
-    def _finished(self) -> None:
-        self.job = None
-        self.progress.visible = False
-        self.cancel_button.disabled = True
 
     def cancel(self, text: str | None = None) -> None:
         """Stop the running atlas job; what was drawn before stays hidden."""
@@ -194,17 +162,9 @@ class AtlasView(pn.viewable.Viewer):
         self.state.param.update(atlas=False)
 
     def _drop(self, text: str | None = None) -> None:
-        if self.job is not None:
-            self.job.cancel()
-        self._finished()
-        self._key = None
+        self.run.stop(text)
         self.curves = None
         self.revision += 1
-        self.status.object = _text(text) if text else ""
 
     def _element(self, revision: int = 0) -> hv.Overlay:
         return curves_overlay(self.curves)
-
-
-def _text(text: str) -> str:
-    return f'<div style="font-size:12px;color:#444">{html.escape(text)}</div>'

@@ -10,7 +10,6 @@ in its kind's line style, with its codimension-two points and the current parame
 """
 from __future__ import annotations
 
-import html
 from typing import Any
 
 import holoviews as hv
@@ -20,6 +19,7 @@ import param
 
 from ..core import CURVE_STYLES
 from ..state import ExplorerState
+from ..ui.job_panel import JobPanel
 from ..ui.plots import HoloViewsPane
 from ..ui.widgets import Choice, message
 from ..work.atlas import Curves, bifurcation_curve, from_job, to_core
@@ -31,7 +31,7 @@ from .continuation import core_bounds, swept
 PARAMS2 = {"Λ": "lam", "r": "r", "j": "j", "H₂/H₁": "h2", "φ₂ [°]": "phi2"}
 RANGES2 = {"lam": (0.5, 4.0), "r": (0.3, 0.95), "j": (2.0, 16.0), "h2": (0.0, 1.0),
            "phi2-paper": (0.0, 360.0), "phi2-core": (-180.0, 180.0)}
-KINDS = ("fold", "period_doubling", "grazing", "stick_onset")
+KINDS = ("fold", "period_doubling", "grazing", "stick_onset", "stick_end")
 #: A click lands on a mark when it is this close, as a share of the diagram's range.
 CLICK_TOLERANCE = 0.004
 
@@ -46,24 +46,16 @@ class CurveView(pn.viewable.Viewer):
     def __init__(self, **params: Any):
         super().__init__(**params)
         self.curves: Curves | None = None
-        self.job: Any = None
-        self._key: tuple | None = None
-        self.cancel_button = pn.widgets.Button(label="Cancel", disabled=True, width=80,
-                                               css_classes=["curve-cancel"])
+        self.run = JobPanel(self.jobs, "curve", "curve")
         self.hide_button = pn.widgets.Button(label="Hide curve", width=100,
                                              css_classes=["curve-hide"])
-        self.cancel_button.on_click(lambda e: self.cancel("Tracing cancelled."))
+        self.run.cancel_button.on_click(lambda e: self.cancel("Tracing cancelled."))
         self.hide_button.on_click(lambda e: self.state.param.update(curve_kind="", curve_at=None))
-        self.progress = pn.indicators.Progress(value=0, max=100, visible=False, bar_color="info",
-                                               height=14, sizing_mode="stretch_width",
-                                               css_classes=["curve-progress"])
-        self.status = pn.pane.HTML(_text("Click a marked bifurcation of the continued branch to "
-                                         "trace its curve in a second parameter."),
-                                   css_classes=["curve-status"], sizing_mode="stretch_width")
+        self.run.say("Click a marked bifurcation of the continued branch to trace its curve in "
+                     "a second parameter.")
         self.element = hv.DynamicMap(self._element, streams=[
             hv.streams.Params(self, ["revision"]), hv.streams.Params(self.state, ["result"])])
-        self.pane = HoloViewsPane(self.element, css_classes=["curve-plot"], width=380, height=300,
-                                  visible=False)
+        self.pane = HoloViewsPane(self.element, css_classes=["curve-plot"], width=380, height=300)
         self.state.param.watch(self._on_click, ["result", "branch"])
         self.state.param.watch(self._update, ["curve_kind", "curve_at", "curve_param2",
                                               "branch"])
@@ -72,8 +64,8 @@ class CurveView(pn.viewable.Viewer):
     def __panel__(self):
         return pn.Column(
             pn.Row(Choice(self.state, "curve_param2", PARAMS2, select=True, width=160),
-                   self.cancel_button, self.hide_button),
-            message(self.state, "curve"), self.progress, self.status, self.pane,
+                   self.run.cancel_button, self.hide_button),
+            message(self.state, "curve"), self.run.progress, self.run.status, self.pane,
             sizing_mode="stretch_width", css_classes=["bifurcation-curve"])
 
     # ----- which bifurcation ------------------------------------------------------------------
@@ -129,56 +121,25 @@ class CurveView(pn.viewable.Viewer):
         self.hide_button.visible = bool(s.curve_kind)
         req = self.request()
         if req is None:
-            if not s.curve_kind and (self._key is not None or self.curves is not None):
+            if not s.curve_kind and (self.run.key is not None or self.curves is not None):
                 self._drop()
             return
         key = (repr(req[0].canonical()), repr(req[1]), *req[2:4], tuple(req[4].items()),
                *req[5:8], req[8])
-        if key == self._key:
+        if key == self.run.key:
             return
-        self._key = key
         s.clear("curve")
-        what = s.curve_kind.replace("_", " ")
-        self.status.object = _text(f"Tracing the {what} at {s.curve_at:.6g} in {req[7]}…")
-        self.progress.param.update(value=0, visible=True)
-        try:
-            self.job = self.jobs.submit(
-                "curve", bifurcation_curve, req, time_limit=180.0,
-                on_progress=lambda f: self._progress(key, f),
-                on_done=lambda out: self._done(key, out, req[2], req[7]),
-                on_error=lambda m: self._error(key, m))
-        except RuntimeError as exc:
-            self._error(key, str(exc))
-            return
-        self.cancel_button.disabled = False
+        self.run.submit(key, bifurcation_curve, req,
+                        f"Tracing the {s.curve_kind.replace('_', ' ')} at {s.curve_at:.6g} in "
+                        f"{req[7]}…", 180.0, lambda out: self._done(out, req[2], req[7]),
+                        lambda msg: s.say("curve", f"The curve could not be traced: {msg}"))
 
-    def _progress(self, key: tuple, fraction: float) -> None:
-        if key == self._key:
-            self.progress.value = int(100 * fraction)
-
-    def _done(self, key: tuple, out: dict, name: str, p2: str) -> None:
-        if key != self._key:
-            return
-        self._finished()
+    def _done(self, out: dict, name: str, p2: str) -> None:
         self.curves = from_job(out, self.state.phases, name, p2)
         meta = out["meta"]
-        self.status.object = _text(f"{meta.get('from', '')} Traced in {p2}: "
-                                   f"{self.curves.summary()}. {meta.get('message', '')}")
-        self.pane.visible = True
+        self.run.say(f"{meta.get('from', '')} Traced in {p2}: {self.curves.summary()}. "
+                     f"{meta.get('message', '')}")
         self.revision += 1
-
-    def _error(self, key: tuple, msg: str) -> None:
-        if key != self._key:
-            return
-        self._finished()
-        self._key = None
-        self.status.object = ""
-        self.state.say("curve", f"The curve could not be traced: {msg}")
-
-    def _finished(self) -> None:
-        self.job = None
-        self.progress.visible = False
-        self.cancel_button.disabled = True
 
     def cancel(self, text: str | None = None) -> None:
         """Stop tracing and forget the bifurcation chosen."""
@@ -186,14 +147,9 @@ class CurveView(pn.viewable.Viewer):
         self.state.param.update(curve_kind="", curve_at=None)
 
     def _drop(self, text: str | None = None) -> None:
-        if self.job is not None:
-            self.job.cancel()
-        self._finished()
-        self._key = None
+        self.run.stop(text)
         self.curves = None
-        self.pane.visible = False
         self.revision += 1
-        self.status.object = _text(text) if text else ""
 
     def _element(self, revision: int = 0, result: Any = None) -> hv.Overlay:
         s = self.state
@@ -208,6 +164,3 @@ class CurveView(pn.viewable.Viewer):
         return (curves_overlay(self.curves, "curve") * here).opts(hv.opts.Overlay(
             title=f"{kind.label if kind else ''}", fontsize={"title": "9pt"}, toolbar=None))
 
-
-def _text(text: str) -> str:
-    return f'<div style="font-size:12px;color:#444">{html.escape(text)}</div>'
