@@ -10,7 +10,9 @@ from __future__ import annotations
 from functools import partial
 
 from rattle_core import units
-from rattle_core.analysis.continuation import (CONTINUATION_VERSION, ContinuationResult,
+from rattle_core.analysis.continuation import (ATLAS_AXES, CONTINUATION_VERSION,
+                                                ContinuationError, ContinuationResult, atlas,
+                                                axes_supported, continue_bifurcation,
                                                 continue_orbit, find_orbit)
 from rattle_core.analysis.overlays import contact_boundary
 from rattle_core.analysis.statistics import batch_means
@@ -19,8 +21,8 @@ from rattle_core.batch.ensemble import noise_sensitivity
 from rattle_core.analysis.sound import (DEFAULT_EXCITATION_HZ, DEFAULT_MODES,
                                         DEFAULT_SAMPLE_RATE, DEFAULT_TAIL, EXCITATION_HZ_RANGE,
                                         HousingMode, parse_modes, synthesize, write_wav)
-from rattle_core.analysis.vocabulary import (REGIME_CODES, REGIME_COLOURS, REGIME_MEANING,
-                                             physical_table)
+from rattle_core.analysis.vocabulary import (CODIM2_MARKERS, CURVE_STYLES, REGIME_CODES,
+                                             REGIME_COLOURS, REGIME_MEANING, physical_table)
 from rattle_core.batch.plan import PHYSICAL_AXES as MAP_PHYSICAL_AXES
 from rattle_core.batch.plan import plan_map, point_params
 from rattle_core.model.excitation import TWO_PI, excitation
@@ -66,6 +68,8 @@ __all__ = [
     "DEFAULT_SAMPLE_RATE", "DEFAULT_TAIL", "EXCITATION_HZ_RANGE", "HousingMode", "parse_modes",
     "synthesize", "write_wav", "physical_table", "impacts_frame", "batch_means",
     "NOISE_DEFAULT", "NOISE_RANGE", "NOISE_LEVELS", "noise_sensitivity",
+    "ATLAS_AXES", "ContinuationError", "atlas", "axes_supported", "continue_bifurcation",
+    "CODIM2_MARKERS", "CURVE_STYLES",
     "LOUDNESS_RATE", "loudness", "render", "normalize", "GEARBOX", "DEFAULT_DURATION_S",
     "DEFAULT_TRANSFER_PA_PER_NS", "Excitation", "Gear", "Gearbox", "SAMPLE_RUNUP", "OrderMap",
     "orders_png", "verdict_png", "cached_verdict", "check_verdict_rpm",

@@ -12,12 +12,15 @@ from typing import Any
 
 import panel as pn
 
+from .views.atlas import AtlasView
+from .views.bifcurve import CurveView
 from .views.continuation import ContinuationView
 from .views.controls import Controls
 from .views.diagram import DiagramView
 from .views.explorer import RegimeView, SectionView
 from .views.gearbox import GearboxView
 from .views.maps import MapsView
+from .views.motion import MotionView
 from .views.noise import NoiseView
 from .work.threads import HV_LOCK
 from .session import Session
@@ -49,21 +52,28 @@ class Dashboard:
         self.noise = NoiseView(state=s, jobs=jobs)
         self.time_history = TimeHistoryView(state=s)
         self.section = SectionView(state=s)
+        self.motion = MotionView(state=s)
         self.diagram = DiagramView(state=s, jobs=jobs)
         self.continuation = ContinuationView(state=s, jobs=jobs)
         self.sound = SoundView(state=s)
+        self.curve = CurveView(state=s, jobs=jobs)
         self.maps = MapsView(state=s, jobs=jobs)
+        self.atlas = AtlasView(state=s, jobs=jobs, maps=self.maps)
         self.gearbox = GearboxView(state=s, jobs=jobs)
         self.views = [self.controls, self.units, self.regime, self.noise, self.time_history,
-                      self.section,
-                      self.diagram, self.continuation, self.sound, self.maps, self.gearbox]
+                      self.section, self.motion,
+                      self.diagram, self.continuation, self.curve, self.sound, self.maps,
+                      self.atlas, self.gearbox]
         explorer = pn.Column(
             self.regime, self.noise,
             pn.Row(self.time_history, self.units.table, sizing_mode="stretch_width"),
-            pn.Row(self.section, pn.Column(self.diagram, self.continuation, sizing_mode="stretch_width"),
+            self.motion,
+            pn.Row(self.section, pn.Column(self.diagram, self.continuation, self.curve,
+                                           sizing_mode="stretch_width"),
                    sizing_mode="stretch_width"),
             self.sound, sizing_mode="stretch_width")
-        self.tabs = pn.Tabs(("Explorer", explorer), ("Maps", self.maps), ("Gearbox", self.gearbox),
+        maps_tab = pn.Column(self.maps, self.atlas, sizing_mode="stretch_width")
+        self.tabs = pn.Tabs(("Explorer", explorer), ("Maps", maps_tab), ("Gearbox", self.gearbox),
                             dynamic=True,
                             sizing_mode="stretch_width", css_classes=["main-tabs"])
         self.layout = pn.template.BootstrapTemplate(

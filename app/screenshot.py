@@ -4,13 +4,16 @@
     .venv/bin/python -m app.screenshot --maps --out assets/maps.png   # the Maps tab, computed
     .venv/bin/python -m app.screenshot --continuation --query "?lam=1.2&h2=0" \
         --out assets/continuation.png                                  # "Continue this orbit"
+    .venv/bin/python -m app.screenshot --gearbox --out assets/gearbox.png   # the Gearbox tab
 
 Serves the app on a free local port, opens it in headless Chromium (Debian's ``chromium``;
 Playwright's own browsers cannot be downloaded here), waits until the time history and the
 bifurcation diagram are drawn, and writes the PNG. With ``--maps`` it opens the Maps tab,
 computes the default regime map (Λ × φ₂) and waits for its image first. With
 ``--continuation`` it presses "Continue this orbit", waits for the branch on the diagram and
-keeps the part of the page with the diagram and the multipliers.
+keeps the part of the page with the diagram and the multipliers. With ``--gearbox`` it opens
+the Gearbox tab, takes the sample run-up, runs the verdict with a drag +20 % variant and waits
+for it.
 """
 from __future__ import annotations
 
@@ -51,6 +54,8 @@ def main() -> int:
     ap.add_argument("--maps", action="store_true", help="screenshot the Maps tab with a computed map")
     ap.add_argument("--continuation", action="store_true",
                     help="press 'Continue this orbit' and screenshot the diagram with the branch")
+    ap.add_argument("--gearbox", action="store_true",
+                    help="screenshot the Gearbox tab with the sample's verdict and a variant")
     ap.add_argument("--chromium", default=shutil.which("chromium") or "/usr/bin/chromium")
     args = ap.parse_args()
 
@@ -76,6 +81,15 @@ def main() -> int:
             if args.continuation:
                 page.locator(".cont-button button").first.click()
                 page.wait_for_function(BRANCH_READY, timeout=300_000)
+            if args.gearbox:  # the tab's four plots stand one below the other
+                page.set_viewport_size({"width": 1500, "height": 1500})
+                page.locator(".bk-tab", has_text="Gearbox").first.click()
+                page.locator(".gb-sample button").first.click()
+                page.locator(".gb-measure-status").filter(has_text="rpm bins").first.wait_for(timeout=120_000)
+                page.locator(".gb-variant select").first.select_option(label="drag torque +/- %")
+                page.wait_for_timeout(500)
+                page.locator(".gb-run button").first.click()
+                page.locator(".gb-status").filter(has_text="Verdict (").first.wait_for(timeout=600_000)
             page.wait_for_timeout(1500)  # let the last renders and the badge settle
             os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
             if args.continuation:

@@ -355,7 +355,7 @@ class Session:
                             f"{', '.join(short(k) for k in unknown[:5])} ignored.")
         for key, value in pairs:
             name = names.get(key)
-            if name is not None and value == "" and name not in ("x0", "cont_from") and getattr(s, name) != "":
+            if name is not None and value == "" and name not in ("x0", "cont_from", "curve_at") and getattr(s, name) != "":
                 s.say(name, f"URL: {s.param[name].label} is empty. Kept {_serialize(s, name)}.")
 
     # ----- teardown -----------------------------------------------------------------------------

@@ -190,6 +190,17 @@ class ExplorerState(Said):
     cont_from = OptionalNumber(None, allow_None=True, bounds=(-1e6, 1e6), label="continued from",
                                doc="the diagram parameter's value (axis units) where the continued "
                                    "orbit was found (empty: the current value)")
+    # ----- bifurcation curves ------------------------------------------------------------------
+    atlas = Flag(False, label="atlas", doc="the exact bifurcation curves drawn over the map")
+    curve_kind = param.Selector(default="", objects=["", "fold", "period_doubling", "grazing",
+                                                     "stick_onset", "stick_end"],
+                                label="curve of",
+                                doc="the kind of the branch's bifurcation whose curve is traced")
+    curve_at = OptionalNumber(None, allow_None=True, bounds=(-1e6, 1e6), label="curve from",
+                              doc="where that bifurcation is (the diagram's units)")
+    curve_param2 = param.Selector(default="r", objects=["lam", "r", "j", "h2", "phi2"],
+                                  label="second parameter",
+                                  doc="the parameter the bifurcation's curve is traced in")
     # ----- computed, never in the URL ----------------------------------------------------------
     result = param.Parameter(None, precedence=-1, doc="the last good Run")
     branch = param.Parameter(None, precedence=-1, doc="the continued branch shown (app.branch.Branch)")
@@ -250,7 +261,8 @@ class GearboxSettings(Said):
 URL_KEYS = {n: n for n in ExplorerState.param if n not in ("name", "result", "messages", "branch")}
 URL_KEYS.update(inertia="J", radius="Rb", drag_torque="C", backlash_um="b_um", backlash_unit="b_unit",
                 excitation="exc", amp1="a1", amp2="a2", phase2="p2", solve_for="solve",
-                continuation="cont")
+                continuation="cont", curve_kind="curve", curve_at="curve_at",
+                curve_param2="curve_in")
 #: Parameters that change the trajectory.
 RUN_KEYS = ("lam", "r", "j", "h2", "phi2", "phases", "harmonics", "v_stick", "noise", "periods",
             "transient",

@@ -40,16 +40,9 @@ from rattle_core import RattleParams, continue_bifurcation, continue_orbit  # no
 from rattle_core.analysis.continuation import c_orbit, find_orbit  # noqa: E402
 from rattle_core.batch.maps import regime_map  # noqa: E402
 
+from bench_continuation import best  # noqa: E402  (best of N runs, as there)
+
 TRANSIENT, RECORD = 300, 100
-
-
-def best(fn, repeat: int):
-    out, t_best = None, np.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        t_best = min(t_best, time.perf_counter() - t0)
-    return out, t_best
 
 
 def last_entry(values: np.ndarray, inside: np.ndarray) -> float:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import threading
+from dataclasses import replace as dataclass_replace
 
 import numpy as np
 import pytest
@@ -272,14 +273,32 @@ def test_bad_requests_name_the_parameter(c_pd):
     stick = continue_orbit(find_orbit(RattleParams(lam=1.1)), "lam", bounds=(0.5, 1.1),
                            direction=-1)
     assert stick.bifurcations[-1].kind == "permanent_contact"
-    up = continue_orbit(find_orbit(RattleParams(lam=1.1)), "lam", bounds=(1.1, 2.0))
-    assert up.bifurcations[-1].kind == "stick_end"
     with pytest.raises(ValueError, match="no curve"):
-        continue_bifurcation(up.bifurcations[-1], "r")
+        continue_bifurcation(dataclass_replace(c_pd, kind="neimark_sacker"), "r")
     line = continue_bifurcation(stick.bifurcations[-1], "r", bounds=(0.3, 0.9))
     assert np.allclose(line.points["lam"], 1.0, atol=1e-9)  # r does not move Λ_c
     with pytest.raises(ValueError, match="param"):
         contact_bifurcation(RattleParams(lam=1.0), "r")
+
+
+def test_end_of_sticking_continued_in_r_matches_a_fresh_continuation():
+    """The harmonic B orbit's stick phase ends at Λ = 1.39591 (r = 0.65); followed in r (no
+    extended system: the end is located in Λ at each r), a curve point agrees with the end of
+    sticking a fresh continuation of B finds at that r, to 1e-8; every point's stick phase has
+    shrunk below 1e-7."""
+    up = continue_orbit(find_orbit(RattleParams(lam=1.1)), "lam", bounds=(1.1, 2.0))
+    end = up.bifurcations[-1]
+    assert end.kind == "stick_end"
+    cur = continue_bifurcation(end, "r", bounds=(0.63, 0.66))
+    pts = cur.points
+    assert cur.status == "bound" and len(pts) >= 5 and (pts["stick_time"] < 1e-7).all()
+    assert pts["r"].min() == pytest.approx(0.63) and pts["r"].max() == pytest.approx(0.66)
+    assert np.all(np.diff(pts["lam"]) < 0)  # the end moves down in Λ as r grows
+    row = pts.iloc[2]
+    fresh = continue_orbit(find_orbit(RattleParams(lam=1.1, r=float(row["r"]))), "lam",
+                           bounds=(1.1, 2.0))
+    assert fresh.bifurcations[-1].kind == "stick_end"
+    assert row["lam"] == pytest.approx(fresh.bifurcations[-1].value, abs=1e-8)
 
 
 def test_progress_cancel_and_limit(c_pd):

@@ -77,3 +77,34 @@ def test_rpm_by_drag_map_follows_the_measurement(follow, tmp_path, monkeypatch):
     plain = run_map(PHYS.to_dimensionless(), PHYS, "rpm", rpm, "drag_torque", drag,
                     transient=150, record=60)
     assert not np.allclose(plain.fields["intensity"], m.fields["intensity"])
+
+
+def test_cli_rpm_sweep_takes_its_harmonics_from_a_measurement(tmp_path):
+    """``rattle sweep --param rpm --orders-from`` writes the rpm of every value and the impulse
+    in N·s at each speed's own scale; without physical units it exits 2 with one line."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import pandas as pd
+    root = Path(__file__).resolve().parent.parent
+    env = {"RATTLE_CACHE_DIR": str(tmp_path / "cache"), "PATH": "/usr/bin:/bin"}
+    gear = ["--inertia", "4e-4", "--radius", "0.035", "--drag-torque", "0.05", "--backlash-um",
+            "80", "--rpm", "1500", "--theta-amp", "1e-3"]
+    out = tmp_path / "rpm.csv"
+    cmd = [sys.executable, "-m", "rattle_cli", "sweep", "--param", "rpm", "--start", "1200",
+           "--stop", "2800", "--num", "5", "--transient", "100", "--record", "40",
+           "--orders-from", str(SAMPLE_RUNUP), "--out", str(out), "--no-png", "-q"]
+    r = subprocess.run(cmd + gear, capture_output=True, text=True, cwd=root, timeout=600, env=env)
+    assert r.returncode == 0, r.stderr
+    summary = pd.read_csv(tmp_path / "rpm_summary.csv")
+    assert summary["rpm"].tolist() == [1200.0, 1600.0, 2000.0, 2400.0, 2800.0]
+    table = pd.read_csv(out)
+    follow = Excitation(engine_order=2.0, harmonics=3,
+                        order_map=OrderMap.from_csv(SAMPLE_RUNUP, (2, 4, 6)))
+    row = table.iloc[-1]
+    scale = follow.follow(PHYS, row["rpm"]).impulse_scale
+    assert row["impulse_Ns"] == pytest.approx(row["impulse"] * scale, rel=1e-12)
+    r = subprocess.run(cmd[:-4] + ["--out", str(out), "-q"], capture_output=True, text=True,
+                       cwd=root, timeout=600, env=env)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--orders-from needs physical" in r.stderr

@@ -146,6 +146,38 @@ def test_periodic_points_have_zero_width_intervals(run):
         assert row["impacts_per_s_ci95"] == pytest.approx(0.0, abs=1e-9)
 
 
+def test_non_repeating_points_take_their_intervals_from_independent_runs(box, run):
+    """A point whose motion does not repeat reports the rates and 95 % intervals of
+    statistics() over 8 runs of its own parameters (converted to per second), with a
+    positive width; a periodic point's interval is exact."""
+    from rattle_core.batch.ensemble import statistics
+    t = run.table[run.table["gear"] != GEARBOX]
+    wild = t[t["interval"] == "8 runs"]
+    assert len(wild) > 0 and (wild["impacts_per_s_ci95"] > 0).all()
+    assert set(t[t["interval"] == "exact"]["impacts_per_s_ci95"]) <= {0.0}
+    row = wild.iloc[0]
+    g = [x.name for x in box.gears].index(row["gear"])
+    phys = box.physical(g, float(row["rpm"]))
+    st = statistics(phys.to_dimensionless(), runs=8, periods=run.settings["record"],
+                    transient=run.settings["transient"])
+    f = phys.frequency_hz
+    assert row["impacts_per_s"] == pytest.approx(st.impacts_per_period.value * f, rel=1e-12)
+    assert row["impacts_per_s_ci95"] == pytest.approx(st.impacts_per_period.ci95 * f, rel=1e-12)
+    assert row["intensity"] == pytest.approx(st.intensity.value * phys.impulse_scale**2 * f,
+                                             rel=1e-12)
+
+
+def test_one_run_intervals_come_from_blocks_of_its_window(box):
+    """With ensemble_runs=0 a non-repeating point's interval is Student's t over five block
+    means of its one window: positive, and labelled so."""
+    res = verdict(box, np.array([2300.0, 2500.0, 2900.0]), transient=150, record=60,
+                  ensemble_runs=0)
+    t = res.table[res.table["gear"] != GEARBOX]
+    assert set(t["interval"]) <= {"exact", "blocks"}
+    blocks = t[t["interval"] == "blocks"]
+    assert len(blocks) > 0 and (blocks["impacts_per_s_ci95"] > 0).all()
+
+
 def test_compiled_loudness_equals_mosqito():
     """The loudness with the compiled nonlinear decay equals mosqito's loudness_zwtv exactly
     on a rattle sound (time-varying loudness and specific loudness)."""
@@ -249,3 +281,13 @@ def test_cli_gearbox_writes_the_verdict_and_refuses_bad_files(tmp_path):
                               str(tmp_path / "v.csv")], capture_output=True, text=True, cwd=ROOT,
                        timeout=600, env=env)
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "inertia_kgm2" in r.stderr
+
+
+def test_verdict_on_dask_equals_the_local_one(box):
+    """The same verdict run as tasks on a two-worker Dask LocalCluster gives the same table."""
+    from rattle_core.batch.executor import dask_session
+    rpm = np.array([1100.0, 1900.0, 2700.0])
+    here = verdict(box, rpm, transient=100, record=40, chunk_speeds=1)
+    with dask_session("local", 2) as client:
+        there = verdict(box, rpm, transient=100, record=40, chunk_speeds=1, executor=client)
+    assert there.table.equals(here.table)

@@ -8,6 +8,18 @@ from test_ui import open_dashboard
 
 pytestmark = [pytest.mark.ui, pytest.mark.timeout(600)]
 
+REGIME_POINTS = """() => {
+  const f = [...Bokeh.documents[0]._all_models.values()].filter(m => m.name === 'gb_regimes')
+    .find(m => { const v = Bokeh.index.find_one(m); return v && v.el.isConnected; });
+  if (f == null) return 0;
+  let n = 0;
+  for (const r of f.renderers) {
+    const d = r.data_source && r.data_source.data;
+    if (d && d.gear && d.color) n += d.color.length;
+  }
+  return n;
+}"""
+
 
 def set_input(page, css: str, value: str) -> None:
     box = page.locator(f"{css} input").first
@@ -16,8 +28,8 @@ def set_input(page, css: str, value: str) -> None:
 
 
 def test_gearbox_tab_from_sample_to_verdict(page, dashboard_server, tmp_path, monkeypatch):
-    """Sample → orders; 4 speeds with a drag +50 % variant → onsets in the status and a CSV of
-    2 × 4 × 4 rows; a CSV with time going back → the message names the line; Listen → audio."""
+    """Sample → orders; 4 speeds with a drag +50 % variant → onsets in the status, the regime
+    plot's 24 points and a CSV of 2 × 4 × 4 rows; a CSV with time going back → the message names the line; Listen → audio."""
     monkeypatch.setenv("RATTLE_CACHE_DIR", str(tmp_path / "cache"))
     errors = open_dashboard(page, dashboard_server)
     page.locator(".bk-tab", has_text="Gearbox").first.click()
@@ -32,6 +44,8 @@ def test_gearbox_tab_from_sample_to_verdict(page, dashboard_server, tmp_path, mo
     expect(page.locator(".gb-status").first).to_contain_text("Variant (drag torque +50 %)",
                                                              timeout=300_000)
     expect(page.locator(".gb-status").first).to_contain_text("5th idler")
+    # the regime plot drew every gear at every speed, baseline and variant (3 × 4 × 2)
+    page.wait_for_function(f"() => ({REGIME_POINTS})() == 24", timeout=60_000)
     with page.expect_download(timeout=60_000) as dl:
         page.locator(".gb-csv button").first.click()
     text = open(dl.value.path(), encoding="utf-8").read().splitlines()

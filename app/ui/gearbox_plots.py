@@ -24,6 +24,13 @@ PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e
 SIZE = dict(height=260, responsive=True, tools=TOOLS, framewise=True, show_grid=True)
 
 
+def _named(name: str):
+    """A hook giving the Bokeh figure ``name`` (tests and scripts find it by that name)."""
+    def hook(plot: Any, element: Any) -> None:
+        plot.state.name = name
+    return hook
+
+
 def orders_plot(order_map: Any) -> hv.Overlay:
     """Angular acceleration amplitude of each order against rpm (empty without a map)."""
     if order_map is None:
@@ -63,8 +70,9 @@ def regime_plot(base: Any, variant: Any) -> hv.Overlay:
         layers = [hv.Points([], ["rpm", "gear"])]
     axes = {"yticks": ticks} if ticks else {}  # Bokeh cannot take an empty tick list
     return hv.Overlay(layers).opts(hv.opts.Points(**SIZE, **axes, ylim=(-0.6, max(len(ticks), 1) - 0.4),
-                                                  xlabel="engine speed [rpm]", ylabel="",
-                                                  title="regime per gear (onset |; variant ■ below)"))
+                                                  xlabel="engine speed [rpm]", ylabel=""),
+                                   hv.opts.Overlay(title="regime per gear (onset |; variant ■ below)",
+                                                   hooks=[_named("gb_regimes")]))
 
 
 def metric_plot(base: Any, variant: Any, column: str, label: str, logy: bool = False) -> hv.Overlay:
@@ -87,4 +95,4 @@ def metric_plot(base: Any, variant: Any, column: str, label: str, logy: bool = F
         curves = [hv.Curve([], "rpm", column)]
     return hv.Overlay(curves).opts(
         hv.opts.Curve(**SIZE, logy=logy, xlabel="engine speed [rpm]", ylabel=label),
-        hv.opts.Overlay(legend_position="top_left", title=label))
+        hv.opts.Overlay(legend_position="right", title=label, hooks=[_named(f"gb_{column}")]))

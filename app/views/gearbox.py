@@ -41,6 +41,7 @@ DEFAULT_GEARS = pd.DataFrame([
     ["reverse idler", 2.5e-4, 0.030, 0.03, 120.0, 0.65, 0.8, np.nan],
     ["6th", 3e-4, 0.040, 0.08, 60.0, 0.65, 1.3, 0.030]], columns=COLUMNS)
 MAX_GEARS = 12
+PLOTS = ("orders", "regimes", "intensity", "loudness")
 VARIANTS = {"no variant": "none", "drag torque +/- %": "drag", "backlash +/- µm": "backlash"}
 
 
@@ -99,15 +100,28 @@ class GearboxView(pn.viewable.Viewer):
         self.run_button.on_click(lambda e: self.run())
         self.cancel_button.on_click(lambda e: self.cancel("Cancelled."))
         self.listen_button.on_click(lambda e: self.listen())
+        self.plots = {key: HoloViewsPane(self._plot(key), sizing_mode="stretch_width",
+                                         css_classes=[f"gb-{key}-plot"]) for key in PLOTS}
+        # a new verdict may bring other gears, hence other layers: each plot is built afresh
+        self.param.watch(lambda e: self._redraw("orders"), "orders_revision")
+        self.param.watch(lambda e: self._redraw("regimes", "intensity", "loudness"), "revision")
+
+    def _plot(self, key: str) -> hv.DynamicMap:
+        """Plot ``key`` of :data:`PLOTS` as a DynamicMap following this view's results."""
         with HV_LOCK:
-            rev = [hv.streams.Params(self, ["revision"])]
-            self.orders_map = hv.DynamicMap(lambda orders_revision: orders_plot(self.order_map),
-                                            streams=[hv.streams.Params(self, ["orders_revision"])])
-            self.regimes = hv.DynamicMap(lambda revision: regime_plot(self.base, self.variant), streams=rev)
-            self.intensity = hv.DynamicMap(lambda revision: metric_plot(
-                self.base, self.variant, "intensity", "intensity Σ I²/s [N²·s]", logy=True), streams=rev)
-            self.loudness = hv.DynamicMap(lambda revision: metric_plot(
-                self.base, self.variant, "loudness_sone", "loudness N5 [sone]"), streams=rev)
+            if key == "orders":
+                return hv.DynamicMap(lambda orders_revision: orders_plot(self.order_map),
+                                     streams=[hv.streams.Params(self, ["orders_revision"])])
+            draw = {"regimes": lambda: regime_plot(self.base, self.variant),
+                    "intensity": lambda: metric_plot(self.base, self.variant, "intensity",
+                                                     "intensity Σ I²/s [N²·s]", logy=True),
+                    "loudness": lambda: metric_plot(self.base, self.variant, "loudness_sone",
+                                                    "loudness N5 [sone]")}[key]
+            return hv.DynamicMap(lambda revision: draw(), streams=[hv.streams.Params(self, ["revision"])])
+
+    def _redraw(self, *keys: str) -> None:
+        for key in keys:
+            self.plots[key].object = self._plot(key)
 
     def __panel__(self):
         s, st = self.settings, self.state
@@ -138,11 +152,7 @@ class GearboxView(pn.viewable.Viewer):
             pn.Row(field("listen_rpm", "gb-listen-rpm"), self.listen_button),
             message(st, "gearbox-listen"), self.listen_status, self.audio,
             width=460, margin=(0, 10))
-        plots = pn.Column(*(HoloViewsPane(dm, sizing_mode="stretch_width", css_classes=[css])
-                            for dm, css in ((self.orders_map, "gb-orders-plot"), (self.regimes, "gb-regime-plot"),
-                                            (self.intensity, "gb-intensity-plot"),
-                                            (self.loudness, "gb-loudness-plot"))),
-                          sizing_mode="stretch_width")
+        plots = pn.Column(*self.plots.values(), sizing_mode="stretch_width")
         return pn.Row(controls, plots, sizing_mode="stretch_width")
 
     # ----- the measurement and the gears --------------------------------------------------
@@ -151,15 +161,20 @@ class GearboxView(pn.viewable.Viewer):
         s = self.settings
         return tuple(s.engine_order * n for n in range(1, s.harmonics + 1))
 
-    def _on_measurement(self, event) -> None:
-        data = event.new
+    def _upload(self, data: Any, where: str, limit: int) -> bytes | None:
+        """An upload's bytes, or None (with a message beside ``where``) when over ``limit``."""
         if data is None:
-            return
-        if len(data) > work.MAX_MEASUREMENT_BYTES:
-            self.state.say("gearbox-measure", f"the file has {len(data)} bytes; the allowed size is up "
-                                              f"to {work.MAX_MEASUREMENT_BYTES} bytes")
-            return
-        self.measure(bytes(data))
+            return None
+        if len(data) > limit:
+            self.state.say(where, f"the file has {len(data)} bytes; the allowed size is up to {limit} bytes")
+            return None
+        self.state.clear(where)
+        return bytes(data)
+
+    def _on_measurement(self, event) -> None:
+        data = self._upload(event.new, "gearbox-measure", work.MAX_MEASUREMENT_BYTES)
+        if data is not None:
+            self.measure(data)
 
     def measure(self, data: bytes | None) -> None:
         """Parse an uploaded measurement (``None``: the sample) in a worker."""
@@ -176,7 +191,9 @@ class GearboxView(pn.viewable.Viewer):
             f"{omap.source}: {omap.rpm.size} rpm bins from {omap.rpm[0]:.0f} to {omap.rpm[-1]:.0f} "
             f"rpm, orders {', '.join(f'{k:g}' for k in omap.orders)}.")
         lo, hi = omap.rpm_range
-        self.settings.param.update(rpm_start=float(math.ceil(lo)), rpm_stop=float(math.floor(hi)))
+        step = self.settings.rpm_step  # round speeds, inside the measured range
+        self.settings.param.update(rpm_start=float(math.ceil(lo / step) * step),
+                                   rpm_stop=float(math.floor(hi / step) * step))
         self.orders_revision += 1
 
     def _failed(self, where: str, msg: str) -> None:
@@ -185,15 +202,10 @@ class GearboxView(pn.viewable.Viewer):
             self.measure_status.object = text_html("No measurement taken: see the message above.")
 
     def _on_toml(self, event) -> None:
-        data = event.new
+        data = self._upload(event.new, "gearbox-gears", work.MAX_TOML_BYTES)
         if data is None:
             return
-        if len(data) > work.MAX_TOML_BYTES:
-            self.state.say("gearbox-gears", f"the file has {len(data)} bytes; the allowed size is up "
-                                            f"to {work.MAX_TOML_BYTES} bytes")
-            return
-        self.state.clear("gearbox-gears")
-        self.jobs.submit("gearbox-toml", work.gearbox_text, (bytes(data), self.order_map),
+        self.jobs.submit("gearbox-toml", work.gearbox_text, (data, self.order_map),
                          time_limit=120.0, on_done=self._toml_read,
                          on_error=lambda m: self.state.say("gearbox-gears", m))
 

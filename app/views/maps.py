@@ -16,6 +16,7 @@ the gear there at t = 0. In physical units the default axes are engine speed and
 """
 from __future__ import annotations
 
+import functools
 import io
 import math
 import weakref
@@ -72,7 +73,7 @@ class MapsView(pn.viewable.Viewer):
         self._request: dict | None = None
         self._figure = lambda: None
         self._generation = 0
-        self._stem = "rattle_map"
+        self._stem, self.overlays = "rattle_map", []  # overlays: other views' (add_overlay)
         m.param.watch(self._on_axis, ["x_axis", "y_axis"])
         m.param.watch(self._on_kind, "kind")
         self.state.param.watch(self._on_units, "units")
@@ -285,8 +286,13 @@ class MapsView(pn.viewable.Viewer):
                 me._figure = weakref.ref(plot.state)
                 save_as(lambda: me._stem)(plot, element)
                 key_legend(plot.state, map_key(me.result, me.settings.field))
-        return (self.image * self.marker).opts(
+        return functools.reduce(lambda a, b: a * b, self.overlays, self.image * self.marker).opts(
             hv.opts.Overlay(width=640, height=520, hooks=[name_plot]))
+
+    def add_overlay(self, element: Any) -> None:
+        """Draw ``element`` (a DynamicMap of another view) over the map from now on."""
+        self.overlays.append(element)
+        self.pane.object = self._plot()
 
     def image_element(self, revision: int = 0) -> hv.Image:
         """The map as the page draws it, for the field shown."""

@@ -22,11 +22,13 @@ from typing import Any
 import numpy as np
 import panel as pn
 import param
-from bokeh.models import (ColumnDataSource, DataRange1d, HoverTool, Legend, LegendItem, SaveTool)
+from bokeh.models import (ColumnDataSource, DataRange1d, HoverTool, Legend, LegendItem, SaveTool,
+                          Span)
 from bokeh.plotting import figure
 
 from ..state import ExplorerState
-from ..ui.labels import ACTIVE_COLOR, GEAR_COLOR, REVERSE_COLOR, STICK_COLOR, TOOTH_COLOR
+from ..ui.labels import (ACTIVE_COLOR, GEAR_COLOR, MARK_COLOR, REVERSE_COLOR, STICK_COLOR,
+                         TOOTH_COLOR)
 from ..ui.plots import caption, file_stem, name_saved_png, time_history_data
 
 MOTION = ("t", "x", "y", "yj", "tooth_lo", "tooth_hi")
@@ -63,6 +65,11 @@ def time_history_figure() -> tuple[Any, dict[str, ColumnDataSource]]:
                            LegendItem(label="permanent contact", renderers=[stick])],
                     location="top_left", click_policy="hide", background_fill_alpha=0.7)
     p.add_layout(legend, "right")
+    # the gear-in-motion view's clock moves it in the page (app.views.motion); on the overlay
+    # layer, a move repaints the cursor alone, not the plot's thousands of points
+    p.add_layout(Span(location=None, dimension="height", line_color=MARK_COLOR, line_width=2,
+                      line_alpha=0.8, name="th_cursor", visible=False,
+                      level="overlay"))
     return p, src
 
 

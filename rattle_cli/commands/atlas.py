@@ -4,7 +4,7 @@
 the closed-form one-sided C orbit; ``c-unstable``, its unstable twin; ``simulate``, the orbit
 a simulation settles on), the parameter it is continued in (``+`` towards larger values, the
 default, ``-`` towards smaller), and the N-th bifurcation of kind ``KIND`` met on the way
-(``pd`` or ``period_doubling``, ``fold``, ``grazing``, ``stick_onset``).  ``contact:PARAM``
+(``pd`` or ``period_doubling``, ``fold``, ``grazing``, ``stick_onset``, ``stick_end``).  ``contact:PARAM``
 is the contact boundary Λ_c, where rattle starts.  The model options give the start's
 parameters.  The curve is written to ``OUT`` (one row per point) and its codimension-two
 points to ``OUT_codim2``; ``--png`` draws them.
@@ -26,7 +26,8 @@ HELP = "follow a bifurcation in a second parameter: its curve to CSV"
 
 STARTS = ("c", "c-unstable", "simulate", "contact")
 KINDS = {"pd": "period_doubling", "period_doubling": "period_doubling", "fold": "fold",
-         "grazing": "grazing", "stick_onset": "stick_onset", "sticking": "stick_onset"}
+         "grazing": "grazing", "stick_onset": "stick_onset", "sticking": "stick_onset",
+         "stick_end": "stick_end"}
 
 
 def add_parser(sub) -> None:
@@ -36,7 +37,7 @@ def add_parser(sub) -> None:
     a.add_argument("--from", dest="spec", required=True, metavar="START:PARAM[+|-]:KIND[:N]",
                    help="the bifurcation: START c, c-unstable, simulate or contact; PARAM the "
                         "parameter it is found in (+ up, - down; default up); KIND pd, fold, "
-                        "grazing or stick_onset; N the N-th met (default 1). Examples: "
+                        "grazing, stick_onset or stick_end; N the N-th met (default 1). Examples: "
                         "c:lam:pd, simulate:lam-:pd, c:lam-:fold, contact:lam")
     a.add_argument("--param2", required=True, help="the second parameter: lam, r, j, hK, phiK "
                                                    "(degrees), rpm or drag_torque")

@@ -87,6 +87,7 @@ CURVE_STYLES: dict[str, CurveStyle] = {
     "period_doubling": CurveStyle("period doubling (multiplier −1)", "#c0392b", "solid"),
     "grazing": CurveStyle("grazing (an impact appears)", "#16a085", "dotdash"),
     "stick_onset": CurveStyle("onset of sticking", "#d35400", "dotted"),
+    "stick_end": CurveStyle("end of sticking", "#7f8c8d", "dotted"),
 }
 #: matplotlib's spelling of the Bokeh dash names used above.
 MPL_DASH = {"solid": "-", "dashed": "--", "dotdash": "-.", "dotted": ":"}

@@ -26,10 +26,14 @@ Columns of :attr:`Verdict.table` (one row per gear and speed, then one per speed
 ``onset_rpm``
     The lowest speed of the sweep at which the gear leaves permanent contact (NaN if it never
     does; the sweep's first speed if it rattles throughout).
-``impacts_per_s_ci95``, ``intensity_ci95``
-    Half-widths of 95 % intervals of the two rates from one run per point: the recorded window
-    cut into :data:`BLOCKS` blocks, Student's t over the block means.  Periodic motion gives 0;
-    chaotic motion gives the statistical scatter of this window.
+``impacts_per_s_ci95``, ``intensity_ci95``, ``interval``
+    Half-widths of 95 % intervals of the two rates, and how they were found (``interval``):
+    ``exact`` for periodic motion (0); for motion that does not repeat, ``N runs``: the two
+    rates and their intervals over ``ensemble_runs`` independent runs
+    (:func:`~rattle_core.batch.ensemble.statistics`, each of the point's own transient and
+    recorded periods), or with ``ensemble_runs=0`` ``blocks``: one run's recorded window cut
+    into :data:`BLOCKS` blocks, Student's t over the block means (the single run's uncertainty,
+    which understates a slow drift between attractors' regions).
 ``contact_ratio``
     ``J R_d max(−θ̈_drive) / (R_b C)``: the closed-form contact boundary is where it passes 1.
 ``lam, j``
@@ -45,24 +49,26 @@ import numpy as np
 
 from ..analysis.loudness import SAMPLE_RATE, loudness
 from ..analysis.sound import render
+from ..analysis.statistics import estimate
 from ..analysis.vocabulary import regime_letters
 from ..model.gearbox import Gearbox
 from ..model.params import RattleParams
 from ..solver.trajectory import SOLVER_VERSION, _check_int
 from .chunks import run_chunk, summary_arrays
+from .ensemble import statistics
 from .executor import run_chunks
 from .sweep import check_budget
 
 #: The ``gear`` of the rows that describe all gears together.
 GEARBOX = "gearbox"
-#: Blocks of the recorded window behind the 95 % intervals.
+#: Blocks of one run's recorded window behind its 95 % intervals (``ensemble_runs=0``).
 BLOCKS = 5
-#: Student's t, 97.5 % quantile, BLOCKS − 1 degrees of freedom.
-T_975 = 2.7764451051977987
+#: Independent runs behind the intervals of a point whose motion does not repeat.
+ENSEMBLE_RUNS = 8
 MAX_SPEEDS = 2000
-VERDICT_VERSION = 1
+VERDICT_VERSION = 2
 COLUMNS = ["gear", "rpm", "regime", "impacts_per_s", "intensity", "loudness_sone",
-           "sharpness_acum", "onset_rpm", "impacts_per_s_ci95", "intensity_ci95",
+           "sharpness_acum", "onset_rpm", "impacts_per_s_ci95", "intensity_ci95", "interval",
            "contact_ratio", "lam", "j"]
 
 
@@ -156,11 +162,8 @@ def _blocks(t: np.ndarray, values: np.ndarray, transient: int, record: int) -> n
     return np.bincount(block, weights=values, minlength=BLOCKS) / np.diff(edges)
 
 
-def _ci(blocks: np.ndarray) -> float:
-    return float(T_975 * np.std(blocks, ddof=1) / math.sqrt(BLOCKS))
-
-
-def _verdict_chunk(gearbox: Gearbox, rpm: np.ndarray, transient: int, record: int) -> dict:
+def _verdict_chunk(gearbox: Gearbox, rpm: np.ndarray, transient: int, record: int,
+                   runs: int = ENSEMBLE_RUNS) -> dict:
     """All gears at the speeds ``rpm``: one row per point, plus the gearbox's per speed."""
     phys, cols = _point_rows(gearbox, rpm)
     K = gearbox.excitation.harmonics
@@ -175,6 +178,7 @@ def _verdict_chunk(gearbox: Gearbox, rpm: np.ndarray, transient: int, record: in
     ng = len(gearbox.gears)
     out = {k: np.zeros(n) for k in ("impacts_per_s", "intensity", "loudness_sone",
                                      "sharpness_acum", "impacts_per_s_ci95", "intensity_ci95")}
+    interval = np.full(n, "exact", dtype=object)
     samples = int(round(gearbox.duration_s * SAMPLE_RATE))
     pressures = np.zeros((n, samples))
     for i, ph in enumerate(phys):
@@ -185,8 +189,18 @@ def _verdict_chunk(gearbox: Gearbox, rpm: np.ndarray, transient: int, record: in
         per_period = np.ones(t.size)
         out["impacts_per_s"][i] = (cl["active_per_period"][i] + cl["reverse_per_period"][i]) * f
         out["intensity"][i] = cl["intensity"][i] * scale**2 * f
-        out["impacts_per_s_ci95"][i] = _ci(_blocks(t, per_period, transient, record)) * f
-        out["intensity_ci95"][i] = _ci(_blocks(t, imp**2, transient, record)) * scale**2 * f
+        if cl["period"][i] == 0 and t.size:
+            if runs >= 2:
+                st = statistics(ph.to_dimensionless(), runs=runs, periods=record,
+                                transient=transient)
+                rate, energy, interval[i] = st.impacts_per_period, st.intensity, f"{runs} runs"
+            else:
+                rate = estimate(_blocks(t, per_period, transient, record))
+                energy = estimate(_blocks(t, imp**2, transient, record))
+                interval[i] = "blocks"
+            out["impacts_per_s"][i], out["impacts_per_s_ci95"][i] = rate.value * f, rate.ci95 * f
+            out["intensity"][i] = energy.value * scale**2 * f
+            out["intensity_ci95"][i] = energy.ci95 * scale**2 * f
         if letters[i] == "A" or t.size == 0:
             continue  # permanent contact is silent
         t_s = (t - 2 * math.pi * transient) / ph.omega
@@ -213,6 +227,7 @@ def _verdict_chunk(gearbox: Gearbox, rpm: np.ndarray, transient: int, record: in
     for g in range(ng):
         ratio[g::ng] = gearbox.contact_ratio(g, rpm)
     return {"rpm": np.asarray(rpm), "regime": letters.astype(str), "ratio": ratio,
+            "interval": interval,
             "lam": cols["lam"], "j": cols["j"], "status": cl["status"], **out,
             "box": box}
 
@@ -220,7 +235,7 @@ def _verdict_chunk(gearbox: Gearbox, rpm: np.ndarray, transient: int, record: in
 def verdict(gearbox: Gearbox, rpm: Any, *, transient: int = 200, record: int = 100,
             progress: Callable[[int, int], Any] | None = None,
             cancel: Callable[[], bool] | None = None, executor: Any = None,
-            chunk_speeds: int | None = None) -> Verdict:
+            chunk_speeds: int | None = None, ensemble_runs: int = ENSEMBLE_RUNS) -> Verdict:
     """Which gears rattle, from which speed, and how loud: every gear at every speed, one batch.
 
     Parameters
@@ -239,6 +254,9 @@ def verdict(gearbox: Gearbox, rpm: Any, *, transient: int = 200, record: int = 1
         Run the chunks on a Dask cluster.
     chunk_speeds : int, optional
         Speeds per chunk (default: about 1/10 of them, at least 2).
+    ensemble_runs : int
+        Independent runs behind the rates and intervals of a point whose motion does not
+        repeat (0: one run, intervals from blocks of its window; module docstring).
     """
     import pandas as pd
     if not isinstance(gearbox, Gearbox):
@@ -247,14 +265,17 @@ def verdict(gearbox: Gearbox, rpm: Any, *, transient: int = 200, record: int = 1
     transient = _check_int("transient", transient, 0, 100_000)
     record = _check_int("record", record, BLOCKS, 100_000)
     record = record_periods(gearbox, r, record)
+    runs = _check_int("ensemble_runs", ensemble_runs, 0, 64)
     ng = len(gearbox.gears)
-    check_budget(r.size * ng * (transient + record), "gears × speeds × (transient + record)")
+    # the worst case: every point non-periodic, each run again ``runs`` times
+    check_budget(r.size * ng * (transient + record) * (1 + runs),
+                 "gears × speeds × (transient + record) × (1 + ensemble_runs)")
     # every point is checked before anything runs
     _point_rows(gearbox, r)
     if chunk_speeds is None:
         chunk_speeds = max(2, math.ceil(r.size / 10))
     chunk_speeds = _check_int("chunk_speeds", chunk_speeds, 1, MAX_SPEEDS)
-    tasks = [(gearbox, r[s:s + chunk_speeds], transient, record)
+    tasks = [(gearbox, r[s:s + chunk_speeds], transient, record, runs)
              for s in range(0, r.size, chunk_speeds)]
     parts, cancelled = run_chunks(_verdict_chunk, tasks, [len(t[1]) * ng for t in tasks],
                                   executor=executor, progress=progress, cancel=cancel)
@@ -266,9 +287,10 @@ def verdict(gearbox: Gearbox, rpm: Any, *, transient: int = 200, record: int = 1
             "gear": np.tile(names, m), "rpm": np.repeat(p["rpm"], ng), "regime": p["regime"],
             **{k: p[k] for k in ("impacts_per_s", "intensity", "loudness_sone", "sharpness_acum",
                                  "impacts_per_s_ci95", "intensity_ci95")},
-            "contact_ratio": p["ratio"], "lam": p["lam"], "j": p["j"]}))
+            "interval": p["interval"], "contact_ratio": p["ratio"], "lam": p["lam"], "j": p["j"]}))
         frames.append(pd.DataFrame({"gear": GEARBOX, "rpm": p["rpm"], "regime": "", **p["box"],
                                     "impacts_per_s_ci95": np.nan, "intensity_ci95": np.nan,
+                                    "interval": "",
                                     "contact_ratio": np.nan, "lam": np.nan, "j": np.nan}))
     table = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame(columns=COLUMNS)
     table["onset_rpm"] = np.nan
@@ -278,8 +300,8 @@ def verdict(gearbox: Gearbox, rpm: Any, *, transient: int = 200, record: int = 1
     order = {n: i for i, n in enumerate(names + [GEARBOX])}
     table = table.sort_values(["gear", "rpm"], key=lambda c: c.map(order) if c.name == "gear"
                               else c).reset_index(drop=True)[COLUMNS]
-    settings = {"transient": transient, "record": record, "solver_version": SOLVER_VERSION,
-                "verdict_version": VERDICT_VERSION}
+    settings = {"transient": transient, "record": record, "ensemble_runs": runs,
+                "solver_version": SOLVER_VERSION, "verdict_version": VERDICT_VERSION}
     return Verdict(gearbox=gearbox, rpm=r, table=table, settings=settings, cancelled=cancelled)
 
 

@@ -298,10 +298,7 @@ class Gearbox:
         for i, g in enumerate(gear_list):
             if not isinstance(g, dict):
                 raise ValueError(f"gearbox TOML: [[gear]] number {i + 1} is not a table")
-            extra = set(g) - _GEAR_KEYS
-            if extra:
-                raise ValueError(f"gear {g.get('name', i + 1)!r}: unknown key {sorted(extra)[0]!r}; "
-                                 f"allowed: {', '.join(sorted(_GEAR_KEYS))}")
+            _check_keys(g, _GEAR_KEYS, f"gear {g.get('name', i + 1)!r}")
             missing = {"name", "inertia_kgm2", "base_radius_m", "drag_torque_Nm",
                        "backlash_um"} - set(g)
             if missing:
@@ -327,14 +324,18 @@ def model_columns(points: list) -> dict:
     return out
 
 
+def _check_keys(t: dict, allowed: set[str], where: str) -> None:
+    extra = set(t) - allowed
+    if extra:
+        raise ValueError(f"{where}: unknown key {sorted(extra)[0]!r}; allowed: "
+                         f"{', '.join(sorted(allowed))}")
+
+
 def _table(data: dict, name: str, allowed: set[str]) -> dict:
     t = data.get(name, {})
     if not isinstance(t, dict):
         raise ValueError(f"gearbox TOML: [{name}] must be a table")
-    extra = set(t) - allowed
-    if extra:
-        raise ValueError(f"gearbox TOML [{name}]: unknown key {sorted(extra)[0]!r}; allowed: "
-                         f"{', '.join(sorted(allowed))}")
+    _check_keys(t, allowed, f"gearbox TOML [{name}]")
     return t
 
 

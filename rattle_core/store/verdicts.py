@@ -16,20 +16,21 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..batch.gearbox import COLUMNS, VERDICT_VERSION, Verdict, check_rpm, record_periods, verdict
+from ..batch.gearbox import (COLUMNS, ENSEMBLE_RUNS, VERDICT_VERSION, Verdict, check_rpm,
+                             record_periods, verdict)
 from ..model.gearbox import Gearbox
 from ..solver.trajectory import SOLVER_VERSION
 from .cache import cached
 from .files import atomic_savez
 
-_TEXT = {"gear": "U80", "regime": "U8"}
+_TEXT = {"gear": "U80", "regime": "U8", "interval": "U16"}
 VERDICT_FIELDS = ("meta", "rpm") + tuple(f"c_{c}" for c in COLUMNS)
 
 
 def verdict_request(gearbox: Gearbox, rpm: np.ndarray, settings: dict) -> dict:
     """What a verdict depends on; its canonical hash is the cache key."""
     return {"kind": "gearbox", "gearbox": gearbox.canonical(), "rpm": np.asarray(rpm),
-            "settings": {k: settings[k] for k in ("transient", "record")},
+            "settings": {k: settings[k] for k in ("transient", "record", "ensemble_runs")},
             "solver": SOLVER_VERSION, "verdict": VERDICT_VERSION}
 
 
@@ -60,7 +61,7 @@ def cached_verdict(gearbox: Gearbox, rpm: Any, *, transient: int = 200, record: 
                    progress: Callable[[int, int], Any] | None = None,
                    cancel: Callable[[], bool] | None = None, executor: Any = None,
                    chunk_speeds: int | None = None, directory: Path | str | None = None,
-                   use_cache: bool = True) -> Verdict:
+                   use_cache: bool = True, ensemble_runs: int = ENSEMBLE_RUNS) -> Verdict:
     """:func:`~rattle_core.batch.gearbox.verdict`, served from the disk cache when the same
     gearbox ran at the same speeds before (``result.from_cache``); a cancelled one is not
     stored.  Arguments as for the verdict; ``use_cache=False`` computes and stores nothing."""
@@ -68,10 +69,12 @@ def cached_verdict(gearbox: Gearbox, rpm: Any, *, transient: int = 200, record: 
 
     def compute() -> Verdict:
         return verdict(gearbox, r, transient=transient, record=record, progress=progress,
-                       cancel=cancel, executor=executor, chunk_speeds=chunk_speeds)
+                       cancel=cancel, executor=executor, chunk_speeds=chunk_speeds,
+                       ensemble_runs=ensemble_runs)
     if not use_cache:
         return compute()
-    settings = {"transient": int(transient), "record": record_periods(gearbox, r, int(record))}
+    settings = {"transient": int(transient), "record": record_periods(gearbox, r, int(record)),
+                "ensemble_runs": int(ensemble_runs)}
 
     def holds(res: Verdict) -> bool:
         n = r.size * (len(gearbox.gears) + 1)

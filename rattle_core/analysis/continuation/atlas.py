@@ -8,7 +8,7 @@ A regime map shows pixels; the atlas draws the boundaries between them exactly. 
 2. takes a few rows ``y = const`` of the window and, on each, the periodic orbits that
    simulations from a few values of ``x`` settle on; follows each in ``x`` across the window
    (:func:`continue_orbit`), and the period-doubled branches born on the way;
-3. follows every fold, period doubling, grazing and onset of sticking found in ``y``
+3. follows every fold, period doubling, grazing, onset and end of sticking found in ``y``
    (:func:`continue_bifurcation`), unless a curve already drawn passes through it.
 
 What the seeds never reach (an orbit no simulation from them settles on) is not drawn; more
@@ -16,7 +16,6 @@ rows and columns of seeds find more.
 """
 from __future__ import annotations
 
-import math
 import re
 import threading
 from typing import Any, Callable, Sequence
@@ -24,7 +23,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from ...model.params import RattleParams, check_range
-from .bifcurve import contact_bifurcation, continue_bifurcation
+from .bifcurve import _low_high, contact_bifurcation, continue_bifurcation
 from .driver import continue_orbit
 from .orbits import ContinuationError
 from .parameter import _KIND_LAM, _Param
@@ -33,7 +32,7 @@ from .simulated import find_orbit
 from .twoparam import BifurcationCurve
 
 #: Kinds of one-parameter bifurcations the atlas follows in the second parameter.
-ATLAS_KINDS = ("fold", "period_doubling", "grazing", "stick_onset")
+ATLAS_KINDS = ("fold", "period_doubling", "grazing", "stick_onset", "stick_end")
 # what ends one seed or one curve of the atlas without ending the atlas: no orbit there, a
 # branch that cannot be followed, an impact reaching zero speed inside the shooting equations
 _FAILURES = (ValueError, ContinuationError, ZeroDivisionError, FloatingPointError,
@@ -92,7 +91,7 @@ def atlas(params: RattleParams, x_name: str, x_range: Sequence[float], y_name: s
             spec = _Param.make(name, params, physical if name in ("rpm", "drag_torque") else None)
         except ValueError as exc:
             raise ValueError(f"the atlas has no curves over {name!r}: {exc}") from None
-        lo, hi = _range(rng, label)
+        lo, hi = _low_high(rng, label)
         specs.append((spec, lo, hi))
     (sx, x0, x1), (sy, y0, y1) = specs
     done = [0]
@@ -184,16 +183,6 @@ def _seed(params: RattleParams, physical, values: dict):
     return p, type(physical).from_dimensionless(p, held, solve_for="drag_torque")
 
 
-def _range(rng, label: str) -> tuple[float, float]:
-    try:
-        lo, hi = (float(v) for v in rng)
-    except (TypeError, ValueError):
-        raise ValueError(f"{label} must be two numbers (low, high), got {rng!r}") from None
-    if not (math.isfinite(lo) and math.isfinite(hi)) or lo >= hi:
-        raise ValueError(f"{label} = {rng!r} must be two finite numbers, low < high")
-    return lo, hi
-
-
 def _grid(lo: float, hi: float, n: int) -> np.ndarray:
     return lo + (hi - lo) * (np.arange(n) + 0.5) / n
 
@@ -216,7 +205,8 @@ def _bifurcations_across(orb, x_name: str, x_window, physical, cancel) -> list:
             continue
         branches += 1
         for b in res.bifurcations:
-            if b.kind in ATLAS_KINDS and b._restart is not None and b._restart[1] is not None:
+            if b.kind == "stick_end" or (b.kind in ATLAS_KINDS and b._restart is not None
+                                         and b._restart[1] is not None):
                 out.append(b)
             if b.kind == "period_doubling" and b.orbit.period <= 2:
                 todo.append((b, 0))

@@ -13,6 +13,7 @@ from ...model.params import RattleParams, check_range
 from ...solver.trajectory import SOLVER_VERSION
 from .codim2 import Codim2Point, _pd_direction, _reduced
 from .contact import _ContactSystem, _contact_side, _global_start, _polish_t
+from .stickend import _stick_end_side
 from .defining import _Extended, _Grazing, _Multiplier, _StickOnset
 from .driver import CONTINUATION_VERSION
 from .orbits import ContinuationError
@@ -22,7 +23,8 @@ from .results import Bifurcation
 from .twoparam import MAX_CURVE_POINTS, BifurcationCurve, _check_cancel, _finish, _trace
 
 #: Bifurcation kinds that :func:`continue_bifurcation` follows in a second parameter.
-CURVE_STARTS = ("fold", "period_doubling", "grazing", "stick_onset", "permanent_contact")
+CURVE_STARTS = ("fold", "period_doubling", "grazing", "stick_onset", "stick_end",
+                "permanent_contact")
 
 
 def continue_bifurcation(bifurcation, param2: str | None = None, *,
@@ -153,6 +155,9 @@ def continue_bifurcation(bifurcation, param2: str | None = None, *,
                      "max_points": max_points},
         "solver_version": SOLVER_VERSION, "continuation_version": CONTINUATION_VERSION,
     }
+    if kind == "stick_end":
+        return _stick_end_curve(ext, X0, direction, ds, ds_min, ds_max, bounds_q, max_points,
+                                cancel, names, provenance, t_start)
     if kind == "contact":
         return _contact_curve(ext, X0, direction, ds, ds_min, ds_max, bounds_q, max_points,
                               cancel, names, provenance, t_start)
@@ -196,6 +201,17 @@ def _same(a: RattleParams, b: RattleParams) -> bool:
     return True
 
 
+def _low_high(pair, label: str) -> tuple[float, float]:
+    """Two finite numbers, low < high, or ValueError naming ``label``."""
+    try:
+        lo, hi = (float(v) for v in pair)
+    except (TypeError, ValueError):
+        raise ValueError(f"{label} must be two numbers (low, high), got {pair!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi)) or lo >= hi:
+        raise ValueError(f"{label} = {pair!r} must be two finite numbers, low < high")
+    return lo, hi
+
+
 def _bounds_q(spec: _Param, bounds, label: str) -> tuple[float, float]:
     lo_q, hi_q = spec.q_range()
     if spec.kind in (_KIND_LAM, _KIND_J):
@@ -204,12 +220,7 @@ def _bounds_q(spec: _Param, bounds, label: str) -> tuple[float, float]:
         hi_q = min(hi_q, 1.0)
     if bounds is None:
         return lo_q, hi_q
-    try:
-        b0, b1 = (float(v) for v in bounds)
-    except (TypeError, ValueError):
-        raise ValueError(f"{label} must be two numbers (low, high), got {bounds!r}") from None
-    if not (math.isfinite(b0) and math.isfinite(b1)) or b0 >= b1:
-        raise ValueError(f"{label} = {bounds!r} must be two finite numbers, low < high")
+    b0, b1 = _low_high(bounds, label)
     qa, qb = sorted((spec.q_of(b0), spec.q_of(b1)))
     for v, qv in ((b0, qa), (b1, qb)):
         try:
@@ -231,6 +242,11 @@ def _from_bifurcation(plane: _Plane, b: Bifurcation, q1: float, q2: float, v_sti
             raise ContinuationError(f"no contact boundary near {b.param} = {b.value:.10g}")
         return "contact", sys_, Xc
     orb = b.orbit
+    if b.kind == "stick_end":
+        # no extended system: the orbit sticks; ``ext`` carries what the natural steps need
+        q_lo, q_hi = b._restart[2], b._restart[3]
+        return "stick_end", (plane, orb, float(np.sign(q_lo - q_hi)) or 1.0), \
+            np.array([q1, q2])
     if orb.kind != "impact" or b._restart is None or b._restart[1] is None:
         raise ValueError(f"the {b.kind} at {b.param} = {b.value:.10g} is on an orbit that "
                          "sticks; only bifurcations of impact orbits have curves here")
@@ -308,23 +324,53 @@ def _contact_curve(sys_, X0, direction, ds, ds_min, ds_max, bounds_q, max_points
     if tau0[-1] < 0:
         tau0 = -tau0
     count = [1]
-    halves, statuses, messages = [], [], []
-    sides = [1, -1] if direction == 0 else [direction]
-    for sgn in sides:
-        pts, st, msg = _contact_side(sys_, X0.copy(), sgn * tau0, ds, ds_min, ds_max, bounds_q,
-                                     max_points, count, cancel)
-        halves.append(pts)
-        statuses.append(st)
-        messages.append(msg)
-    pts = halves[1][::-1] + halves[0][1:] if len(halves) == 2 else halves[0]
+    pts, status, msg = _both_ways(direction, lambda sgn: _contact_side(
+        sys_, X0.copy(), sgn * tau0, ds, ds_min, ds_max, bounds_q, max_points, count, cancel))
     rows = []
     for i, (X, ev) in enumerate(pts):
         v1, v2 = sys_.plane.value_of(X[1], X[2])
         rows.append({"point": i, names[0]: v1, names[1]: v2, "q1": float(X[1]),
                      "q2": float(X[2]), "t_star": float(X[0] % (2 * np.pi)), "event": ev})
-    status = statuses[0] if len(set(statuses)) == 1 else "+".join(statuses)
-    msg = "; ".join(f"{'up' if s > 0 else 'down'}: {m}" for s, m in zip(sides, messages))
     return BifurcationCurve(kind="contact", param1=names[0], param2=names[1],
                             points=pd.DataFrame(rows), codim2=[], status=status, message=msg,
                             provenance=provenance, seconds=time.perf_counter() - t_start,
                             _ext=None, _X=[X for X, _ in pts])
+
+
+def _stick_end_curve(ext, X0, direction, ds, ds_min, ds_max, bounds_q, max_points, cancel,
+                     names, provenance, t_start) -> BifurcationCurve:
+    import pandas as pd
+    plane, orb0, inside = ext
+    count = [1]
+    span = bounds_q[1][1] - bounds_q[1][0]
+    dq = min(ds, 0.05) * (span if math.isfinite(span) and span < 1e3 else 1.0)
+    pts, status, msg = _both_ways(direction, lambda sgn: _stick_end_side(
+        plane, X0, orb0, inside, sgn, bounds_q, dq, ds_min * max(span, 1.0), 2 * dq, count,
+        max_points, cancel))
+    rows = []
+    for i, (X, orb) in enumerate(pts):
+        v1, v2 = plane.value_of(X[0], X[1])
+        row = {"point": i, names[0]: v1, names[1]: v2, "q1": float(X[0]), "q2": float(X[1]),
+               "period": orb.period, "n_impacts": orb.n_impacts}
+        for k, imp in enumerate(orb.impulse):
+            row[f"impulse_{k + 1}"] = float(imp)
+        row.update(mu1_re=0.0, mu1_im=0.0, mu2_re=0.0, mu2_im=0.0, stable=True,
+                   stick_time=orb.stick_time, gap_min=orb.gap_min, event="")
+        rows.append(row)
+    return BifurcationCurve(kind="stick_end", param1=names[0], param2=names[1],
+                            points=pd.DataFrame(rows), codim2=[], status=status, message=msg,
+                            provenance=provenance, orbits=[o for _, o in pts],
+                            seconds=time.perf_counter() - t_start, _ext=None,
+                            _X=[X for X, _ in pts])
+
+
+def _both_ways(direction: int, side):
+    """``side(±1)`` → ``(points, status, message)`` run both ways (or one), joined into one
+    run of points in curve order, with a status and message per side."""
+    sides = [1, -1] if direction == 0 else [direction]
+    runs = [side(sgn) for sgn in sides]
+    pts = runs[1][0][::-1] + runs[0][0][1:] if len(runs) == 2 else runs[0][0]
+    statuses = [r[1] for r in runs]
+    status = statuses[0] if len(set(statuses)) == 1 else "+".join(statuses)
+    msg = "; ".join(f"{'up' if sgn > 0 else 'down'}: {r[2]}" for sgn, r in zip(sides, runs))
+    return pts, status, msg

@@ -308,20 +308,9 @@ def _doubled(ext: _Extended, Xe, cond):
 def _pd_direction(ext: _Extended, Xe):
     """The doubled orbit's unknowns moved along the critical eigenvector (multiplier −1): the
     direction in which the period-2n orbits leave the doubled period-n one."""
-    from .stability import _local_maps
-    m = len(ext.fl)
+    from .stability import _flip_vectors
     lam, r, j, h, phi = ext.plane.at(Xe[-2], Xe[-1])
-    D = np.empty((m, 2, 2))
-    _local_maps(Xe[:-2], ext.fl, ext.n, lam, r, h, phi, D)
-    M = np.eye(2)
-    for i in range(m):
-        M = D[i] @ M
-    ev, vec = np.linalg.eig(M)
-    e = np.real(vec[:, int(np.argmin(np.abs(ev + 1.0)))])
-    delta = np.empty((m, 2))
-    delta[0] = e
-    for i in range(m - 1):
-        delta[i + 1] = D[i] @ delta[i]
+    delta = _flip_vectors(Xe[:-2], ext.fl, ext.n, lam, r, h, phi)
     tau = np.concatenate([delta.ravel(), -delta.ravel(), [0.0, 0.0]])
     return tau / np.linalg.norm(tau)
 

@@ -12,8 +12,10 @@ import numpy as np
 
 from ...model.excitation import TWO_PI, excitation
 from ..overlays import _max_neg_ydd
+from .defining import _null_vector
 from .parameter import _KIND_LAM
 from .plane import _Plane, _dy_dparam
+from .results import _limit
 from .shooting import NEWTON_TOL
 
 
@@ -49,19 +51,7 @@ class _ContactSystem:
         return R, A
 
     def tangent(self, X, prev=None):
-        _, A = self.residual_jacobian(X)
-        t = None
-        if prev is not None:
-            try:
-                t = np.linalg.solve(np.vstack([A, prev[None, :]]), np.array([0.0, 0.0, 1.0]))
-            except np.linalg.LinAlgError:
-                t = None
-        if t is None or not np.all(np.isfinite(t)):
-            t = np.linalg.svd(A)[2][-1]
-        t = t / np.linalg.norm(t)
-        if prev is not None and float(t @ prev) < 0.0:
-            t = -t
-        return t
+        return _null_vector(self.residual_jacobian(X)[1], prev)
 
     def correct(self, Xp, tau, maxit: int = 12, fix: int | None = None):
         X = Xp.copy()
@@ -110,16 +100,12 @@ def _global_start(plane: _Plane, q1: float, q2: float):
 def _contact_side(sys_: _ContactSystem, X, tau, ds, ds_min, ds_max, bounds_q, max_points,
                   count, cancel):
     """One side of the contact boundary; corners where another maximum of ``−ÿ`` takes over."""
-    from .results import _is_cancelled
     (a1, b1), (a2, b2) = bounds_q
     pts = [(X, "")]
     status = message = ""
     while True:
-        if count[0] >= max_points:
-            status, message = "max_points", f"stopped at max_points = {max_points}"
-            break
-        if _is_cancelled(cancel):
-            status, message = "cancelled", f"cancelled after {count[0]} points"
+        status, message = _limit(count[0], max_points, cancel)
+        if status:
             break
         X_new, it = sys_.correct(X + ds * tau, tau)
         at_bound = False

@@ -215,24 +215,7 @@ class _Extended:
 
     def tangent(self, X, prev=None):
         """Unit null vector of the ``(2m + 1) × (2m + 2)`` Jacobian, oriented along ``prev``."""
-        _, A = self.residual_jacobian(X)
-        t = None
-        if prev is not None:
-            B = np.vstack([A, prev[None, :]])
-            rhs = np.zeros(self.N)
-            rhs[-1] = 1.0
-            try:
-                t = np.linalg.solve(B, rhs)
-            except np.linalg.LinAlgError:
-                t = None
-            if t is not None and not np.all(np.isfinite(t)):
-                t = None
-        if t is None:
-            t = np.linalg.svd(A)[2][-1]
-        t = t / np.linalg.norm(t)
-        if prev is not None and float(t @ prev) < 0.0:
-            t = -t
-        return t
+        return _null_vector(self.residual_jacobian(X)[1], prev)
 
     def correct(self, Xp, tau, maxit: int = 12, fix: int | None = None):
         """Newton's method from ``Xp``: on the plane ``τ · (X − Xp) = 0`` or, with ``fix`` = −1
@@ -271,6 +254,22 @@ class _Extended:
 
     def accept(self, X):
         self.cond.accept(self, X[:-2], float(X[-2]), float(X[-1]))
+
+
+def _null_vector(A, prev=None):
+    """Unit null vector of the ``(N − 1) × N`` matrix ``A``: bordered by ``prev`` when given
+    (and oriented along it), else the last right singular vector."""
+    t = None
+    if prev is not None:
+        rhs = np.zeros(A.shape[1])
+        rhs[-1] = 1.0
+        t = _solve(np.vstack([A, prev[None, :]]), rhs)
+    if t is None:
+        t = np.linalg.svd(A)[2][-1]
+    t = t / np.linalg.norm(t)
+    if prev is not None and float(t @ prev) < 0.0:
+        t = -t
+    return t
 
 
 def _solve(B, b):

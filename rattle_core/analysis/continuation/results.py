@@ -224,6 +224,16 @@ def _is_cancelled(cancel) -> bool:
     return bool(cancel())
 
 
+def _limit(count: int, max_points: int, cancel) -> tuple[str, str]:
+    """``(status, message)`` when a curve must stop at ``count`` points, else empty strings."""
+    if count >= max_points:
+        return "max_points", (f"stopped at the limit of max_points = {max_points} curve points; "
+                              "raise it to go on")
+    if _is_cancelled(cancel):
+        return "cancelled", f"cancelled after {count} points"
+    return "", ""
+
+
 class _Run:
     """State of one :func:`continue_orbit` call: the points so far and what was found."""
 

@@ -79,3 +79,21 @@ def _local_maps(z, fl, n, lam, r, h, phi, D):
         c = -(1.0 + r) * b2 - r * inv_lam
         D[i, 1, 0] = -(r * inv_lam + c * D[i, 0, 0])
         D[i, 1, 1] = -(r + c * D[i, 0, 1])
+
+
+def _flip_vectors(z, fl, n, lam, r, h, phi) -> np.ndarray:
+    """The eigenvector of the impact map's multiplier nearest −1, carried through the local
+    maps: ``(m, 2)``, row ``i`` the shift of impact ``i`` along the critical direction (the
+    direction in which a period-doubled orbit leaves)."""
+    m = fl.shape[0]
+    D = np.empty((m, 2, 2))
+    _local_maps(z, fl, n, lam, r, h, phi, D)
+    M = np.eye(2)
+    for i in range(m):
+        M = D[i] @ M
+    ev, vec = np.linalg.eig(M)
+    delta = np.empty((m, 2))
+    delta[0] = np.real(vec[:, int(np.argmin(np.abs(ev + 1.0)))])
+    for i in range(m - 1):
+        delta[i + 1] = D[i] @ delta[i]
+    return delta

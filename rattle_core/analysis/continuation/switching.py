@@ -11,7 +11,7 @@ from .orbits import ContinuationError, PeriodicOrbit, _normalise, _pack
 from .parameter import _Param
 from .results import _Run
 from .simulated import find_orbit
-from .stability import _local_maps
+from .stability import _flip_vectors
 
 
 def _pd_switch(run: _Run, br: _Branch, Xe, ds, ds_min, ds_max):
@@ -19,17 +19,7 @@ def _pd_switch(run: _Run, br: _Branch, Xe, ds, ds_min, ds_max):
     m = len(br.fl)
     z = Xe[:-1]
     lam, r, j, h, phi = br._at(Xe[-1])
-    D = np.empty((m, 2, 2))
-    _local_maps(z, br.fl, br.n, lam, r, h, phi, D)
-    M = np.eye(2)
-    for i in range(m):
-        M = D[i] @ M
-    ev, vec = np.linalg.eig(M)
-    e = np.real(vec[:, int(np.argmin(np.abs(ev + 1.0)))])
-    delta = np.empty((m, 2))
-    delta[0] = e
-    for i in range(m - 1):
-        delta[i + 1] = D[i] @ delta[i]
+    delta = _flip_vectors(z, br.fl, br.n, lam, r, h, phi)
     br2 = _Branch(br.spec, np.concatenate([br.fl, br.fl]), 2 * br.n)
     shift = np.zeros(2 * m)
     shift[0::2] = TWO_PI * br.n

@@ -21,7 +21,7 @@ import numpy as np
 from .codim2 import _LABELS, Codim2Point, _codim2_tests, _locate_on_curve, _record
 from .defining import _Extended
 from .orbits import PeriodicOrbit, _impact_orbit
-from .results import _is_cancelled
+from .results import _limit
 from .sticking import _w_min
 
 #: Most points one curve may have.
@@ -32,6 +32,7 @@ CURVE_KINDS = {
     "period_doubling": "period-doubling curve: a multiplier is −1",
     "grazing": "grazing curve: a flight touches a wall",
     "stick_onset": "onset-of-sticking curve: an impact on a pushing wall slows to v_stick",
+    "stick_end": "end-of-sticking curve: the stick phase shrinks to nothing",
     "contact": "contact boundary Λ_c = 1/max(−ÿ): below it the gear never leaves the tooth",
 }
 
@@ -138,12 +139,6 @@ class _CurveRun:
         self.message: list[str] = []
         self.count = 0
 
-    def stop(self) -> str:
-        if self.count >= self.max_points:
-            return "max_points"
-        if _is_cancelled(self.cancel):
-            return "cancelled"
-        return ""
 
     def inside(self, X) -> bool:
         (a1, b1), (a2, b2) = self.bounds_q
@@ -182,11 +177,8 @@ def _side(run: _CurveRun, X, tau, ds, ds_min, ds_max):
     X_start = X.copy()
     status, message = "", ""
     while True:
-        status = run.stop()
+        status, message = _limit(run.count, run.max_points, run.cancel)
         if status:
-            message = ("stopped at the limit of max_points = "
-                       f"{run.max_points} curve points; raise it to go on"
-                       if status == "max_points" else f"cancelled after {run.count} points")
             break
         X_new, it = ext.correct(X + ds * tau, tau)
         if X_new is not None and np.linalg.norm(X_new - X) > 2.0 * ds:

@@ -1,0 +1,144 @@
+"""Browser tests of the gear in motion: the teeth and the time history's cursor move in the page.
+
+The drawn teeth are read from the page's own Bokeh models (``motion_teeth``, the cursor
+``th_cursor``, the clock on ``motion_frames``), so a test passes only if the browser's
+animation moved them. Impact times are computed here, independently of the page, by
+simulating the default page's parameters.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from test_ui import open_dashboard
+
+from app.state import ExplorerState, rattle_params
+from rattle_core import simulate
+
+pytestmark = [pytest.mark.ui, pytest.mark.timeout(300)]
+
+READY = """() => { const m = Bokeh.documents[0].get_model_by_name('motion_frames');
+  return m != null && m.get_length() > 0; }"""
+
+#: The drawn picture: the idle tooth's left vertex, the cursor, the clock and the drawn gaps
+#: on the pitch line (driving flank → idle tooth, idle tooth → opposite flank).
+DRAWN = """() => {
+  const doc = Bokeh.documents[0];
+  const xs = doc.get_model_by_name('motion_teeth').data.xs;
+  const m = doc.get_model_by_name('motion_meta').data;
+  const d = m.d[0], k = m.k[0];
+  const c = doc.get_model_by_name('motion_frames')._rattle_motion;
+  const drv = xs[0][1] - 0.7 * k, idle = xs[1][0] + 0.7 * k, opp = xs[2][0] + 0.7 * k;
+  return {idle: idle, cursor: doc.get_model_by_name('th_cursor').location,
+          t: c == null ? null : c.t, playing: c != null && c.playing,
+          frames: c == null ? 0 : c.frames, wall: c == null ? null : c.wall,
+          gap_active: idle - drv, gap_reverse: opp - idle - d, j: m.j[0]};
+}"""
+
+#: Resolves after ``n`` animation frames of the page (a condition, not a delay).
+AFTER_FRAMES = """(n) => new Promise((done) => { let i = 0;
+  const f = () => { i += 1; if (i >= n) done(true); else requestAnimationFrame(f); };
+  requestAnimationFrame(f); })"""
+
+#: The smallest drawn gaps over ``n`` frames of play, read at every frame.
+MIN_GAPS = """(n) => new Promise((done) => {
+  const doc = Bokeh.documents[0];
+  const k = doc.get_model_by_name('motion_meta').data.k[0];
+  const d = doc.get_model_by_name('motion_meta').data.d[0];
+  let i = 0, a = Infinity, r = Infinity;
+  const f = () => {
+    const xs = doc.get_model_by_name('motion_teeth').data.xs;
+    const idle = xs[1][0] + 0.7 * k;
+    a = Math.min(a, idle - (xs[0][1] - 0.7 * k));
+    r = Math.min(r, xs[2][0] + 0.7 * k - idle - d);
+    i += 1; if (i >= n) done([a, r]); else requestAnimationFrame(f); };
+  requestAnimationFrame(f); })"""
+
+#: Every frame sent: the smallest x − y and y + j − x.
+SENT_GAPS = """() => {
+  const doc = Bokeh.documents[0];
+  const f = doc.get_model_by_name('motion_frames').data, j = doc.get_model_by_name('motion_meta').data.j[0];
+  let a = Infinity, r = Infinity;
+  for (let i = 0; i < f.t.length; i++) { a = Math.min(a, f.x[i] - f.y[i]); r = Math.min(r, f.y[i] + j - f.x[i]); }
+  return [a, r, f.t.length]; }"""
+
+
+def press(page, what: str) -> None:
+    page.locator(f".motion-{what} button").first.click()
+
+
+def open_motion(page, server) -> list[str]:
+    # a first page of a freshly started server on a loaded two-core machine can take over 30 s
+    page.set_default_navigation_timeout(180_000)
+    errors = open_dashboard(page, server)
+    page.wait_for_function(READY, timeout=60_000)
+    page.locator(".motion-play button").first.wait_for(timeout=60_000)
+    return errors
+
+
+def default_impacts() -> np.ndarray:
+    """Impact times of the default page's shown window, from a simulation made here."""
+    s = ExplorerState()
+    tr = simulate(rattle_params(s), periods=s.periods, x0=s.x0, v0=s.v0, t0=s.t0,
+                  strobe_phase=math.radians(s.strobe), transient=s.transient, lyapunov=True)
+    end = tr.t_start + 2 * math.pi * s.shown
+    return tr.impact_t[tr.impact_t <= end]
+
+
+def test_play_moves_the_gear_and_the_cursor_and_pause_stops_them(page, dashboard_server):
+    """Play advances the clock, the drawn idle tooth and the time history's cursor at the
+    chosen speed; Pause stops all three."""
+    errors = open_motion(page, dashboard_server)
+    before = page.evaluate(DRAWN)
+    assert before["playing"] is False
+    press(page, "play")
+    page.wait_for_function(f"() => {{ const d = ({DRAWN})(); return d.frames > 20 && "
+                           f"Math.abs(d.idle - {before['idle']!r}) > 1e-6 && d.cursor > d.t - 1 "
+                           "&& d.cursor > 0; }", timeout=60_000)
+    a = page.evaluate(DRAWN)
+    page.evaluate(AFTER_FRAMES, 10)
+    b = page.evaluate(DRAWN)
+    assert b["t"] > a["t"] and b["cursor"] == b["t"]
+    # the default speed is 0.1× of one forcing period (2π) per second of the page's clock
+    rate = (b["t"] - a["t"]) / ((b["wall"] - a["wall"]) / 1000)
+    assert 0.5 * 0.2 * math.pi <= rate <= 0.2 * math.pi * (1 + 1e-6)
+    press(page, "pause")
+    page.wait_for_function(f"() => !({DRAWN})().playing", timeout=20_000)
+    c = page.evaluate(DRAWN)
+    page.evaluate(AFTER_FRAMES, 15)
+    d = page.evaluate(DRAWN)
+    assert (d["t"], d["idle"], d["cursor"], d["frames"]) == (c["t"], c["idle"], c["cursor"], c["frames"])
+    assert errors == []
+
+
+def test_next_impact_lands_on_the_impacts_with_the_gear_on_a_flank(page, dashboard_server):
+    """"Next impact" steps the clock and the cursor to the first, then the second impact of
+    the window (simulated here), each time with the drawn gear touching a flank."""
+    errors = open_motion(page, dashboard_server)
+    want = default_impacts()
+    assert len(want) >= 3
+    for expected in want[:2]:
+        press(page, "next")
+        page.wait_for_function(f"() => ({DRAWN})().t == {float(expected)!r}", timeout=20_000)
+        got = page.evaluate(DRAWN)
+        assert got["cursor"] == pytest.approx(expected, abs=1e-12)
+        assert min(abs(got["gap_active"]), abs(got["gap_reverse"])) <= 1e-9 * got["j"]
+        assert not got["playing"]
+    assert errors == []
+
+
+def test_the_drawn_gear_stays_between_the_teeth_while_playing(page, dashboard_server):
+    """Every frame sent satisfies y ≤ x ≤ y + j, and the drawn gaps stay ≥ 0 over 60 frames
+    of play at 1× (many impacts)."""
+    errors = open_motion(page, dashboard_server)
+    a, r, n = page.evaluate(SENT_GAPS)
+    assert n > 1000 and a >= -1e-9 and r >= -1e-9
+    page.evaluate("() => { Bokeh.documents[0].get_model_by_name('motion_speed').value = 0; }")
+    press(page, "play")
+    page.wait_for_function(f"() => ({DRAWN})().playing", timeout=20_000)
+    a, r = page.evaluate(MIN_GAPS, 60)
+    j = page.evaluate(DRAWN)["j"]
+    assert a >= -1e-9 * j and r >= -1e-9 * j
+    press(page, "pause")
+    assert errors == []
