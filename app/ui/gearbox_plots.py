@@ -95,4 +95,4 @@ def metric_plot(base: Any, variant: Any, column: str, label: str, logy: bool = F
         curves = [hv.Curve([], "rpm", column)]
     return hv.Overlay(curves).opts(
         hv.opts.Curve(**SIZE, logy=logy, xlabel="engine speed [rpm]", ylabel=label),
-        hv.opts.Overlay(legend_position="top_left", title=label, hooks=[_named(f"gb_{column}")]))
+        hv.opts.Overlay(legend_position="right", title=label, hooks=[_named(f"gb_{column}")]))

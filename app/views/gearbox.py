@@ -191,7 +191,9 @@ class GearboxView(pn.viewable.Viewer):
             f"{omap.source}: {omap.rpm.size} rpm bins from {omap.rpm[0]:.0f} to {omap.rpm[-1]:.0f} "
             f"rpm, orders {', '.join(f'{k:g}' for k in omap.orders)}.")
         lo, hi = omap.rpm_range
-        self.settings.param.update(rpm_start=float(math.ceil(lo)), rpm_stop=float(math.floor(hi)))
+        step = self.settings.rpm_step  # round speeds, inside the measured range
+        self.settings.param.update(rpm_start=float(math.ceil(lo / step) * step),
+                                   rpm_stop=float(math.floor(hi / step) * step))
         self.orders_revision += 1
 
     def _failed(self, where: str, msg: str) -> None:

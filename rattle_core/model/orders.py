@@ -52,7 +52,7 @@ import io
 import math
 import os
 from pathlib import Path
-from typing import Any, Iterable, Sequence
+from typing import Any
 
 import numpy as np
 
