@@ -174,3 +174,35 @@ def test_the_rattle_sound_plays_in_step_in_physical_units(page, dashboard_server
     paused = page.evaluate("(el) => el.paused", page.locator(".sound-audio audio").first.element_handle())
     assert paused
     assert errors == []
+
+
+def test_loop_wraps_next_impact_and_play_to_the_window_start(page, dashboard_server):
+    """With the clock at the window's end, "Next impact" goes to the first impact when Loop is
+    on and stays when it is off; Play at 1× from near the end wraps to the start with Loop on."""
+    errors = open_motion(page, dashboard_server)
+    want = default_impacts()
+    to_end = """() => { const f = Bokeh.documents[0].get_model_by_name('motion_frames');
+      f._rattle_motion.t = f.data.t[f.data.t.length - 1]; return f._rattle_motion.t; }"""
+    press(page, "pause")  # the clock starts at the window's start
+    page.wait_for_function(f"() => ({DRAWN})().t != null", timeout=20_000)
+    end = page.evaluate(to_end)
+    press(page, "next")
+    page.wait_for_function(f"() => ({DRAWN})().t == {float(want[0])!r}", timeout=20_000)
+    press(page, "loop")  # off
+    page.wait_for_function("() => !Bokeh.documents[0].get_model_by_name('motion_loop').active",
+                           timeout=20_000)
+    assert page.evaluate(to_end) == end
+    press(page, "next")
+    page.evaluate(AFTER_FRAMES, 5)
+    assert page.evaluate(DRAWN)["t"] == end
+    press(page, "loop")  # on again
+    page.wait_for_function("() => Bokeh.documents[0].get_model_by_name('motion_loop').active",
+                           timeout=20_000)
+    page.evaluate("""() => { const f = Bokeh.documents[0].get_model_by_name('motion_frames');
+      Bokeh.documents[0].get_model_by_name('motion_speed').value = 0;
+      f._rattle_motion.t = f.data.t[f.data.t.length - 1] - 0.5; }""")
+    press(page, "play")
+    page.wait_for_function(f"() => {{ const d = ({DRAWN})(); return d.playing && d.t < {end - 1.0!r}; }}",
+                           timeout=30_000)
+    press(page, "pause")
+    assert errors == []
