@@ -142,3 +142,35 @@ def test_the_drawn_gear_stays_between_the_teeth_while_playing(page, dashboard_se
     assert a >= -1e-9 * j and r >= -1e-9 * j
     press(page, "pause")
     assert errors == []
+
+
+AUDIO_STATE = """() => {
+  const c = Bokeh.documents[0].get_model_by_name('motion_frames')._rattle_motion;
+  const a = c == null ? null : c.audio;
+  return {on: a != null, paused: a == null ? null : a.paused, rate: a == null ? null : a.playbackRate,
+          time: a == null ? null : a.currentTime, clock_s: c == null ? null : c.t / 1000};
+}"""
+
+
+def test_the_rattle_sound_plays_in_step_in_physical_units(page, dashboard_server):
+    """Units mode, Sound on, Play at 0.1×: the sound card's audio plays at rate 0.1 from the
+    clock's instant (ms of the window ↔ s of the sound), and Pause stops it."""
+    page.set_default_navigation_timeout(180_000)
+    errors = open_dashboard(page, dashboard_server, "?units=true")
+    page.wait_for_function(READY, timeout=60_000)
+    page.wait_for_function("(el) => el.src.length > 100",
+                           arg=page.locator(".sound-audio audio").first.element_handle(),
+                           timeout=60_000)
+    press(page, "sound")
+    press(page, "play")
+    page.wait_for_function(f"() => {{ const a = ({AUDIO_STATE})(); return a.on && !a.paused "
+                           "&& a.time > 0.005; }", timeout=30_000)
+    a = page.evaluate(AUDIO_STATE)
+    assert a["rate"] == pytest.approx(0.1, rel=1e-12)
+    # the clock in ms and the sound's position in s stay together (within a few frames)
+    assert abs(a["time"] - a["clock_s"]) < 0.05
+    press(page, "pause")
+    page.wait_for_function(f"() => !({AUDIO_STATE})().on", timeout=20_000)
+    paused = page.evaluate("(el) => el.paused", page.locator(".sound-audio audio").first.element_handle())
+    assert paused
+    assert errors == []

@@ -6,7 +6,9 @@ URL), and the view runs :func:`app.work.branch.continue_both_ways` as the sessio
 ``continuation`` job (progress, cancel, killed with the session; disk-cached, so a reopened
 link redraws the branch from the cache). The result goes to ``state.branch``, which the
 diagram draws with :func:`branch_overlay`: stable parts solid, unstable parts dashed,
-bifurcations marked and labelled. Beside the status, a small plot shows the Floquet
+bifurcations marked and labelled, each branch in its own colour with a legend entry that
+names its period and where it starts (the branches that period doublings start, the cascade,
+are followed in the same job). Beside the status, a small plot shows the Floquet
 multipliers of the branch point nearest the current value of the swept parameter against the
 unit circle.
 
@@ -24,7 +26,8 @@ import pandas as pd
 import panel as pn
 import param
 
-from ..work.branch import FIND_TRANSIENT, Branch, from_job, continue_both_ways, is_periodic
+from ..work.branch import (FIND_TRANSIENT, MAX_SWITCHED, Branch, from_job, continue_both_ways,
+                           is_periodic)
 from ..core import paper_phi2_to_core
 from ..work.diagram_data import current_value, diagram_key, full_range
 from ..state import ExplorerState
@@ -32,6 +35,8 @@ from ..ui.plots import HoloViewsPane
 from ..ui.widgets import message
 
 BRANCH_COLOR = "#6c3483"
+#: One colour per branch: the continued orbit's first, then those started at period doublings.
+BRANCH_COLORS = (BRANCH_COLOR, "#117a65", "#b9770e", "#1a5276", "#922b21")
 STABLE_COLOR, UNSTABLE_COLOR = "#1e8449", "#c0392b"
 
 
@@ -58,25 +63,75 @@ def _named(glyph: str):
     return hook
 
 
+def _legend_entry(number: int, label: str):
+    """A HoloViews hook adding the line's renderer to branch ``number``'s entry of the legend
+    ``cont-legend`` (made on first use), labelled ``label`` and hidden when ``label`` is empty.
+
+    The legend is Bokeh's, not HoloViews': a HoloViews label that changes makes a new renderer
+    at every new branch, while these lines keep theirs.
+    """
+    def hook(plot: Any, element: Any) -> None:
+        from bokeh.core.properties import value
+        from bokeh.models import Legend, LegendItem
+        renderer = plot.handles.get("glyph_renderer")
+        fig = plot.state
+        if renderer is None or fig is None:
+            return
+        legend = next((m for m in fig.center if isinstance(m, Legend) and m.name == "cont-legend"),
+                      None)
+        if legend is None:
+            legend = Legend(name="cont-legend", location="bottom_right", label_text_font_size="8pt",
+                            background_fill_alpha=0.6, padding=4, spacing=0, click_policy="hide")
+            fig.add_layout(legend)
+        item = next((it for it in legend.items if it.name == f"cont-branch-{number}"), None)
+        if item is None:
+            item = LegendItem(name=f"cont-branch-{number}", label=value(label), renderers=[])
+            legend.items = sorted([*legend.items, item], key=lambda it: it.name)
+        if renderer not in item.renderers:
+            item.renderers = [*item.renderers, renderer]
+        if getattr(item.label, "value", None) != label:  # a value: a plain string means a column
+            item.label = value(label)
+        item.visible = bool(label)
+    return hook
+
+
 #: A path of one blank point: Bokeh reports an error for a line glyph with no coordinates.
 _BLANK = np.full((1, 2), np.nan)
 
 
+def joined(segments: list[np.ndarray]) -> np.ndarray:
+    """Polylines as one ``(x, y)`` array, NaN rows between them (one line glyph draws them)."""
+    if not segments:
+        return _BLANK
+    gap = np.full((1, 2), np.nan)
+    return np.concatenate([part for seg in segments for part in (seg, gap)][:-1])
+
+
 def branch_overlay(branch: Branch | None, name: str) -> hv.Overlay:
-    """The branch on the diagram: stable solid, unstable dashed, bifurcations marked and
-    labelled (empty elements when there is no branch for diagram ``name``)."""
+    """The branches on the diagram: stable solid, unstable dashed, one colour and one legend
+    entry per branch, bifurcations marked and labelled (empty, unlabelled elements where there
+    is no branch for diagram ``name``)."""
     kdims = [hv.Dimension("x"), hv.Dimension("y")]
     ok = branch is not None and branch.name == name
-    stable = branch.segments(True) if ok else []
-    unstable = branch.segments(False) if ok else []
+    held = branch.numbers if ok else []
+    lines = []
+    for i in range(1 + MAX_SWITCHED):
+        here = i in held
+        label = branch.legend(i) if here else ""
+        suffix = f"-{i}" if i else ""
+        colour = BRANCH_COLORS[i % len(BRANCH_COLORS)]
+        lines += [
+            hv.Curve(joined(branch.segments(True, i)) if here else _BLANK, *kdims).opts(
+                color=colour, line_width=2.5,
+                hooks=[_named("cont-stable" + suffix), _legend_entry(i, label)]),
+            hv.Curve(joined(branch.segments(False, i)) if here else _BLANK, *kdims).opts(
+                color=colour, line_width=2, line_dash="dashed",
+                hooks=[_named("cont-unstable" + suffix), _legend_entry(i, label)])]
     marks = branch.marks[["x", "y", "label", "message"]].reset_index(drop=True) if ok else None
     if marks is None or not len(marks):  # one blank row: Bokeh cannot draw empty text columns
         marks = pd.DataFrame({"x": [np.nan], "y": [np.nan], "label": [""], "message": [""]})
     return hv.Overlay([
-        hv.Path(stable or [_BLANK], kdims).opts(
-            color=BRANCH_COLOR, line_width=2.5, hooks=[_named("cont-stable")]),
-        hv.Path(unstable or [_BLANK], kdims).opts(
-            color=BRANCH_COLOR, line_width=2, line_dash="dashed", hooks=[_named("cont-unstable")]),
+        *lines,
         hv.Points(marks, kdims, ["label", "message"]).opts(
             color="black", fill_color="white", size=9, marker="diamond", line_width=1.5,
             tools=["hover"], hooks=[_named("cont-marks")]),
