@@ -4,7 +4,8 @@ Before the page's run had a budget, the worst link simulated for minutes inside 
 redraw while holding the lock every session's redraw takes: another session's redraw waited
 115 s.  Here one page opens the worst link (twice: 300 and 100000 transient periods) while a
 second page changes Λ twice per link; each of its redraws must arrive within seconds, and the
-first page must draw with its run refused (the values in force, not the link's).
+first page must draw with its run refused (the values in force, not the link's) and say
+beside the periods that the run is over the budget.
 """
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ import time
 
 import pytest
 
-from test_ui import CHECKSUM, READY, box, open_dashboard, wait_box
+from test_ui import CHECKSUM, READY, box, message, open_dashboard, wait_box
 from test_page_run import WORST
 
 pytestmark = [pytest.mark.ui, pytest.mark.timeout(600)]
@@ -39,6 +40,8 @@ def test_a_second_session_redraws_while_the_worst_link_runs(browser, dashboard_s
                 assert time.monotonic() - t0 < 20
             a.wait_for_function(READY, timeout=120_000)
             wait_box(a, "periods", 200.0, timeout=60_000)  # the worst run was refused
+            a.locator(".msg-periods", has_text="budget").first.wait_for(timeout=60_000)
+            assert "harmonics" in message(a, "periods")
         assert dashboard_server["log"].tracebacks() == []
     finally:
         ctx_a.close()
