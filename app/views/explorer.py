@@ -193,8 +193,12 @@ class RegimeView(pn.viewable.Viewer):
 
     def __init__(self, **params: Any):
         super().__init__(**params)
-        self.badge = pn.pane.HTML("", css_classes=["regime-badge"], sizing_mode="stretch_width")
-        self.metrics = pn.pane.HTML("", css_classes=["rattle-metrics"], min_width=330)
+        self.badge = pn.pane.HTML("", css_classes=["regime-badge"], sizing_mode="stretch_width",
+                                  min_width=260)
+        # a fixed width, so a long value (an interval, SI units) wraps instead of squeezing the
+        # badge beside it
+        self.metrics = pn.pane.HTML("", css_classes=["rattle-metrics"], width=430,
+                                    styles={"white-space": "normal"})
         self.state.param.watch(self._draw, "result")
         self._draw()
 
