@@ -37,7 +37,7 @@ from rattle_core.store.cache import cached, cached_sweep
 from rattle_core.store.files import atomic_savez
 from rattle_core.store.exports import impacts_frame
 from rattle_core.store.requests import run_map
-from rattle_core.solver.trajectory import SOLVER_VERSION
+from rattle_core.solver.trajectory import MAX_T0, SOLVER_VERSION
 from rattle_core.analysis.loudness import SAMPLE_RATE as LOUDNESS_RATE
 from rattle_core.analysis.loudness import loudness
 from rattle_core.analysis.sound import render, normalize
@@ -58,7 +58,7 @@ core_phi2_to_paper = partial(core_to_paper, k=2, wrap=False)
 core_to_paper_phases = paper_to_core_phases
 
 __all__ = [
-    "CONTINUATION_VERSION", "ContinuationResult", "SOLVER_VERSION", "continue_orbit",
+    "CONTINUATION_VERSION", "ContinuationResult", "SOLVER_VERSION", "MAX_T0", "continue_orbit",
     "find_orbit", "atomic_savez", "cached", "cached_sweep", "find_asset", "list_assets", "load_asset", "contact_boundary", "excitation",
     "units", "PhysicalParams", "REGIMES", "TWO_PI", "MAP_PHYSICAL_AXES", "REGIME_CODES",
     "REGIME_COLOURS", "plan_map", "point_params", "run_map", "PAPER_CASES",

@@ -24,20 +24,20 @@ import itertools
 import logging
 import math
 import re
-import time
 import urllib.parse
 import weakref
 from typing import Any, Callable
 
 import param
 
-from rattle_core import SolverError, classify, simulate
+from rattle_core import SolverError
 
 from .work import jobs as jobs_module
 from .state import (PHYSICAL_KEYS, RUN_KEYS, URL_KEYS, ExplorerState, Run, rattle_params,
                              rejection)
 from .physical import LinkError, link, run_physical
 from .query import readable
+from .work.page_run import TIME_LIMIT, PageRun, run_kwargs
 from .work.threads import HV_LOCK
 
 log = logging.getLogger(__name__)
@@ -45,6 +45,9 @@ log = logging.getLogger(__name__)
 #: Every live session (weakly held): a closed session must disappear from here.
 LIVE: "weakref.WeakSet[Session]" = weakref.WeakSet()
 _ids = itertools.count(1)
+#: The message while a heavy run is computed in a worker process.
+RUNNING = (f"Running this heavy view in the background (up to {TIME_LIMIT:g} s); a new change "
+           "replaces it.")
 #: Parameters a change of which is carried across the link and may need a new run.
 WATCHED = tuple(dict.fromkeys((*RUN_KEYS, *PHYSICAL_KEYS, "units", "solve_for")))
 #: Core parameter names in error messages → state parameters.
@@ -133,6 +136,7 @@ class Session:
         self.key = next(_ids)
         self.state = ExplorerState()
         self.jobs = SessionJobs(self.key, doc, pool)
+        self.page = PageRun(self.jobs)
         self.location = location
         self.last_ms = math.nan
         #: How many simulations this session has run (one per accepted change).
@@ -198,30 +202,45 @@ class Session:
                 return False
             self._good = self._snapshot()
             s.clear(*names, "global")
+            if self.page.pending is not None:
+                s.say("global", RUNNING)
             return True
         finally:
             self._busy = False
 
     def _run(self, names: set[str]) -> str | None:
-        """Simulate the state and publish the run; or the parameter at fault (``global``)."""
+        """Simulate the state within the page's budget (:mod:`app.work.page_run`: here, or in a
+        worker when heavy) and publish the run; or the parameter at fault (``global``)."""
         s = self.state
-        t0 = time.perf_counter()
+        before = dict(self._good)
         try:
             params = rattle_params(s)
-            tr = simulate(params, periods=s.periods, x0=s.x0, v0=s.v0, t0=s.t0,
-                          strobe_phase=math.radians(s.strobe), transient=s.transient, lyapunov=True)
-            cls = classify(tr)
+            out = self.page.run(params, run_kwargs(s), lambda o: self._ran(params, *o),
+                                lambda message: self._failed(before, message))
         except (ValueError, SolverError) as exc:
             field = field_of_error(str(exc)) if isinstance(exc, ValueError) else None
             where = field or next((n for n in RUN_KEYS if n in names), "global")
             s.say(where, f"{exc}. Showing the last good view.")
             return where
-        ms = 1e3 * (time.perf_counter() - t0)
+        if out is not None:
+            self._ran(params, *out)
+        return None
+
+    def _ran(self, params: Any, tr: Any, cls: Any, ms: float) -> None:
+        """Publish a run: every view draws from ``state.result``."""
+        s = self.state
         self.runs += 1
         self.last_ms = ms
         s.result = Run(params=params, tr=tr, cls=cls, phys=run_physical(s, params), phases=s.phases,
                        ms=ms)
-        return None
+        if s.messages.get("global") == RUNNING:
+            s.clear("global")
+
+    def _failed(self, before: dict[str, Any], message: str) -> None:
+        """A run in a worker failed (its time limit, the solver's limits): the last good values."""
+        self._good = before
+        self._revert()
+        self.state.say("global", f"{message}. Showing the last good view.")
 
     def _revert(self) -> None:
         """Put the last good values back (without a new run)."""

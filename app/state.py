@@ -27,7 +27,7 @@ from rattle_core import RattleParams
 
 from .core import (AMPLITUDE_RANGE, J_RANGE, LAM_RANGE, MAX_HARMONICS, NOISE_DEFAULT,
                    NOISE_RANGE, PAPER_CASES, PHASE_RANGE_DEG, R_RANGE, V_STICK_RANGE,
-                   check_range, core_to_paper_phases, paper_to_core_phases)
+                   MAX_T0, check_range, core_to_paper_phases, paper_to_core_phases)
 from .core import units as U
 
 _EX = U.example()
@@ -152,7 +152,7 @@ class ExplorerState(Said):
     x0 = OptionalNumber(None, allow_None=True, bounds=(-1e6, 1e6), label="x₀",
                         doc="initial position (empty: middle of the backlash)")
     v0 = param.Number(0.0, bounds=(-1e6, 1e6), label="ẋ₀", doc="initial velocity")
-    t0 = param.Number(0.0, bounds=(-1e9, 1e9), label="t₀", doc="start time (phase of the forcing)")
+    t0 = param.Number(0.0, bounds=(-MAX_T0, MAX_T0), label="t₀", doc="start time (phase of the forcing)")
     strobe = param.Number(0.0, bounds=(0.0, 360.0), softbounds=(0.0, 360.0), step=1.0, label="θ",
                           doc="strobe phase of the Poincaré map, degrees")
     # ----- view ------------------------------------------------------------------------------

@@ -8,6 +8,7 @@ views draw are checked against them, and the job's arrays against a reload from 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from conftest import wait_for
 
 from app.views.atlas import curves_overlay
@@ -100,3 +101,29 @@ def test_a_click_on_a_marked_period_doubling_traces_its_curve(dash):
     assert "Traced in r" in view.run.status.object
     s.param.update(curve_kind="", curve_at=None)
     assert view.curves is None
+
+
+def test_atlas_over_engine_speed_and_drag_torque(dash):
+    """In physical units, over engine speed × drag torque: both move Λ only (Λ ∝ rpm²/C), so
+    every curve of the atlas is a line of constant Λ, Λ(rpm, C) the same at all its points to
+    1e-8 (relative), and the contact boundary's Λ is 1/max(−ÿ)."""
+    from rattle_core.analysis.overlays import contact_boundary
+    s, maps, atlas = dash.state, dash.maps, dash.atlas
+    s.param.update(units=True, drag_torque=0.05, rpm=1500.0)
+    assert (maps.settings.x_axis, maps.settings.y_axis) == ("rpm", "drag_torque")
+    maps.settings.param.update(x_start=1000.0, x_stop=3000.0, x_num=5, y_start=0.02,
+                               y_stop=0.08, y_num=4, transient=40, record=20)
+    assert maps.compute(), s.messages
+    wait_for(lambda: maps.result is not None and not maps.progress.visible, what="the map")
+    atlas.draw()
+    wait_for(lambda: atlas.curves is not None or "atlas" in s.messages, 300, "the atlas")
+    assert atlas.curves is not None, s.messages
+    phys = s.result.phys
+    assert atlas.curves.count >= 2 and "contact" in atlas.curves.paths
+    for kind, paths in atlas.curves.paths.items():
+        for xy in paths:
+            lam = np.array([phys.replace(rpm=float(a), drag_torque=float(b)).lam for a, b in xy])
+            assert np.max(np.abs(lam / lam[0] - 1.0)) < 1e-8, kind
+            if kind == "contact":
+                assert lam[0] == pytest.approx(contact_boundary(phys.to_dimensionless()),
+                                               rel=1e-9)

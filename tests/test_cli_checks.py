@@ -187,3 +187,16 @@ def test_ctrl_c_in_a_dask_sweep_ends_its_workers(tmp_path):
     assert "rattle: interrupted" in err
     assert "rattle_cli" not in err and "rattle_core" not in err, err
     assert left == []
+
+
+def test_the_atlas_codim2_table_is_checked_first(tmp_path, capsys, monkeypatch):
+    """atlas checks OUT_codim2 (and that no two outputs coincide) before it computes a curve."""
+    import rattle_cli.commands.atlas as atlas_command
+
+    def no_curve(*a, **k):
+        raise AssertionError("a curve was computed before the outputs were checked")
+    monkeypatch.setattr(atlas_command, "parse_spec", no_curve)
+    (tmp_path / "pd_codim2.csv").mkdir()
+    argv = ["atlas", "--lam", "1.2", "--from", "c:lam:pd", "--param2", "j", "--bounds", "1,8",
+            "--out", str(tmp_path / "pd.csv")]
+    one_line_error(argv, capsys, "pd_codim2.csv")

@@ -39,23 +39,25 @@ def test_c_branch_on_the_diagram_is_two_pi_over_lambda_and_period_doubles_at_the
     s = dash.state
     b = continued(dash, **PRESETS["Fig 3C"][1])
     assert s.result.cls.regime == "C" and s.continuation and s.cont_from == 1.2
-    ov = dash.diagram.branch[()]
-    stable, unstable, marks, *labels = ov.values()
-    xy = np.concatenate([p[:, :2] for p in stable.split(datatype="array")])
+    ov = dash.diagram.branch[()].values()
+    stable, unstable, marks, labels = ov[0], ov[1], ov[-3], ov[-2:]
+    xy = stable.array()
+    xy = xy[np.isfinite(xy[:, 0])]
+    first = b.impacts[b.impacts["branch"] == 0]
     strict = np.concatenate([g[g["stable"]][["x", "y"]].to_numpy()
-                             for _, g in b.impacts.groupby("direction")])
+                             for _, g in first.groupby("direction")])
     assert len(strict) >= 10
     np.testing.assert_allclose(strict[:, 1], 2 * np.pi / strict[:, 0], rtol=0, atol=1e-9)
     # the drawn stable line is those points (plus where it meets the dashed part)
     assert np.isin(strict[:, 0], xy[:, 0]).all() and len(xy) <= len(strict) + 4
-    assert len(unstable.split()) >= 1 and unstable.dframe()["x"].max() > 3.9
+    assert np.isfinite(unstable.dframe()["x"]).sum() >= 2 and unstable.dframe()["x"].max() > 3.9
     pd_marks = marks.dframe()[marks.dframe()["label"] == "PD"]
     assert len(pd_marks) >= 1
     assert pd_marks["x"].to_numpy()[0] == pytest.approx(LAM_PD, abs=1e-6)
     assert pd_marks["y"].to_numpy()[0] == pytest.approx(2 * np.pi / LAM_PD, abs=1e-6)
     assert "PD" in {t.strip() for layer in labels for t in layer.dframe()["label"]}
     # going up from Λ = 1.2 the branch is stable until 1.2394, then unstable (μ crossed −1)
-    up = b.points[b.points["direction"] == "up"]
+    up = b.points[(b.points["direction"] == "up") & (b.points["branch"] == 0)]
     assert up[up["x"] < LAM_PD - 1e-6]["stable"].all()
     assert not up[up["x"] > LAM_PD + 1e-6]["stable"].any()
     assert "PD at 1.2394" in dash.continuation.status.object
@@ -120,3 +122,40 @@ def test_button_needs_a_periodic_regime_and_no_branch_is_drawn_for_another_diagr
     assert not any(np.isfinite(e.dframe()["x"]).any() for e in empty.values())
     b = continued(dash, **PRESETS["Fig 3C"][1])
     assert not any(np.isfinite(e.dframe()["x"]).any() for e in branch_overlay(b, "phi2").values())
+
+
+def test_the_cascade_from_the_c_orbit_draws_each_branch_with_a_legend(dash):
+    """From regime C at Λ = 1.2 the job switches branches at period doublings: at least two
+    branches are drawn, each in its own colour with a legend entry naming its period; the first
+    doubling is at the closed-form Λ_PD, where the period-2 branch starts with both impulses
+    2π/Λ_PD; the next doublings come closer and closer (the cascade)."""
+    import holoviews as hv
+    from bokeh.models import Legend
+
+    b = continued(dash, **PRESETS["Fig 3C"][1])
+    assert len(b.numbers) >= 2
+    periods = [int(b.points[b.points["branch"] == i]["period"].iloc[0]) for i in b.numbers]
+    assert periods[:3] == [1, 2, 4][:len(periods[:3])]
+    pd_at = np.sort(b.marks[b.marks["kind"] == "period_doubling"]["x"].unique())
+    assert pd_at[0] == pytest.approx(LAM_PD, abs=1e-7)
+    gaps = np.diff(pd_at)
+    assert len(gaps) >= 2 and np.all(gaps > 0) and np.all(gaps[1:] < gaps[:-1])
+    start = b.impacts[(b.impacts["branch"] == 1)].sort_values("point")
+    first = start[start["point"] == start["point"].min()]
+    assert first["x"].to_numpy() == pytest.approx(LAM_PD, abs=1e-6)
+    np.testing.assert_allclose(first["y"], 2 * np.pi / LAM_PD, atol=1e-6)
+    assert b.legend(0) == "period 1, from 1.2"
+    assert b.legend(1) == f"period 2, PD at {LAM_PD:.5g}"
+    assert b.legend(2) == f"period 4, PD at {pd_at[1]:.5g}"
+    # drawn: one legend item per branch, each holding its solid and its dashed line
+    ov = dash.diagram.branch[()]
+    plot = hv.renderer("bokeh").get_plot(ov)
+    legend = next(m for m in plot.state.select(type=Legend) if m.name == "cont-legend")
+    items = [it for it in legend.items if it.visible]
+    assert [getattr(it.label, "value", it.label) for it in items] == [b.legend(i) for i in b.numbers]
+    assert all(len(it.renderers) == 2 for it in items)
+    colours = {it.renderers[0].glyph.line_color for it in items}
+    assert len(colours) == len(items)
+    for item in items:
+        drawn = item.renderers[0].data_source.data
+        assert np.isfinite(np.asarray(drawn["x"], dtype=float)).sum() >= 2

@@ -83,3 +83,20 @@ def test_an_uploaded_gearbox_file_fills_the_table_and_opens_no_file(view):
     view._on_toml(type("E", (), {"new": text})())
     wait_for(lambda: list(view.table.value["name"]) == ["only"], 120, "the table")
     assert view.settings.harmonics == 2
+
+
+def test_cancel_drops_the_running_verdict(view):
+    """Cancel stops the verdict: its job is cancelled, nothing it computed is shown, and the
+    next request's verdict is the one that arrives."""
+    view.measure(None)
+    wait_for(lambda: view.order_map is not None, 120, "the sample's orders")
+    view.settings.param.update(rpm_num=60, transient=400, record=200)
+    assert view.run()
+    job = view.job
+    view.cancel("Cancelled.")
+    assert job.cancelled and view.job is None and not view.progress.visible
+    assert "Cancelled." in view.status.object
+    view.settings.param.update(rpm_num=3, transient=60, record=30)
+    assert view.run()
+    wait_for(lambda: view.revision == 1, 300, "the second verdict")
+    assert view.base.rpm.size == 3

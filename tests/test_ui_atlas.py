@@ -99,10 +99,20 @@ def test_a_click_on_a_marked_period_doubling_traces_its_curve(page, dashboard_se
     wait_bif(page)
     page.locator(".cont-status div", has_text="Continued branch").first.wait_for(timeout=120_000)
     page.locator(".ctl-curve_param2 select").first.select_option(label="j")
-    page.wait_for_timeout(1500)  # the branch's marks are drawn
+    page.wait_for_function("() => Bokeh.documents[0].get_model_by_name('cont-marks') != null",
+                           timeout=60_000)
+    # the mark must be on screen for the click: the diagram scrolled into view, the layout
+    # settled (the same position twice)
+    page.locator(".diagram").first.scroll_into_view_if_needed()
+    page.wait_for_function(f"""() => {{ const a = ({MARK_XY})(); const prev = window._markAt;
+        window._markAt = a; return prev !== undefined && Math.abs(prev.x - a.x) < 0.5 &&
+        Math.abs(prev.y - a.y) < 0.5 && a.y > 0 && a.y < window.innerHeight; }}""",
+                           timeout=30_000, polling=500)
     target = page.evaluate(MARK_XY)
     assert abs(target["value"] - 1.2394) < 1e-3
     page.mouse.click(target["x"], target["y"])
+    page.wait_for_function("() => window.location.search.includes('lam=1.2394')",
+                           timeout=30_000)
     page.locator(".curve-status", has_text="Traced in j").first.wait_for(timeout=180_000)
     page.wait_for_function(f"() => ({FINITE})('curve-period_doubling') > 0", timeout=60_000)
     x, y = finite_points(page.evaluate(PATHS, "curve-period_doubling"))

@@ -21,9 +21,14 @@ GLYPH_SIZE = """(name) => {
 }"""
 
 
+LEGEND = """() => { const l = Bokeh.documents[0].get_model_by_name('cont-legend');
+  return l == null ? [] : l.items.filter((i) => i.visible).map((i) => i.label.value); }"""
+
+
 def test_continue_this_orbit_overlays_the_branch_and_keeps_it_in_the_url(page, dashboard_server):
     """Regime C at Λ = 1.2: the button draws stable and unstable lines and the PD mark, the
-    status names the period doubling, and the URL carries cont=true and cont_from=1.2."""
+    status names the period doubling, the branches of the cascade are drawn with their legend,
+    and the URL carries cont=true and cont_from=1.2."""
     errors = open_dashboard(page, dashboard_server, "?lam=1.2&h2=0")
     wait_bif(page)
     button = page.locator(".cont-button button").first
@@ -36,6 +41,11 @@ def test_continue_this_orbit_overlays_the_branch_and_keeps_it_in_the_url(page, d
     page.wait_for_function(f"() => ({GLYPH_SIZE})('cont-stable') > 0", timeout=60_000)
     assert page.evaluate(GLYPH_SIZE, "cont-unstable") > 0
     assert page.evaluate(GLYPH_SIZE, "cont-marks") >= 2
+    # the cascade: the branches started at period doublings, each with its legend entry
+    page.wait_for_function(f"() => ({LEGEND})().length >= 3", timeout=60_000)
+    labels = page.evaluate(LEGEND)
+    assert labels[:3] == ["period 1, from 1.2", "period 2, PD at 1.2394", "period 4, PD at 1.3764"]
+    assert page.evaluate(GLYPH_SIZE, "cont-unstable-1") > 0
     page.wait_for_function("() => window.location.search.includes('cont=true')", timeout=20_000)
     assert "cont_from=1.2" in page.evaluate("() => window.location.search")
     assert errors == []

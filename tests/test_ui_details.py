@@ -147,7 +147,8 @@ def test_the_diagram_zooms_its_swept_axis_and_labels_its_marks_in_its_units(page
 def test_statuses_speak_plainly_and_continue_says_why_it_is_off(page, dashboard_server):
     """On chaos the Continue button says why it is off; a first diagram is "computed", its reload
     "read from the disk cache"; a branch's status has no internal names, its buttons leave the
-    multipliers' plot free, and the diagram keys the branch in a legend."""
+    multipliers' plot free, and the diagram keys the branch in a legend and labels each
+    bifurcation once."""
     open_dashboard(page, dashboard_server)
     page.locator(".cont-why div", has_text="periodic orbit").first.wait_for(timeout=30_000)
     assert "regime D" in text(page, ".cont-why")
@@ -165,8 +166,8 @@ def test_statuses_speak_plainly_and_continue_says_why_it_is_off(page, dashboard_
     done.wait_for(timeout=180_000)
     assert "_" not in done.inner_text() and "stopped" in done.inner_text()
     page.wait_for_function(f"""() => {{ const f = ({BY_NAME})('bifurcation');
-        return f.center.some(m => m.type === 'Legend' && m.name === 'branch-key' && m.visible
-            && m.items.some(i => String((i.label || {{}}).value || '').includes('continued branch'))); }}""",
+        return f.center.some(m => m.type === 'Legend' && m.name === 'cont-legend' && m.visible
+            && m.items.some(i => i.visible && String((i.label || {{}}).value || '').includes('period'))); }}""",
                            timeout=60_000)
     dash = max(dashboard_module.LIVE, key=lambda d: d.session.key)
     bifurcations = len(dash.state.branch.marks.drop_duplicates(["kind", "x"]))

@@ -45,8 +45,8 @@ def test_gearbox_tab_from_sample_to_verdict(page, dashboard_server, tmp_path, mo
                                                              timeout=300_000)
     expect(page.locator(".gb-status").first).to_contain_text("5th idler")
     # the regime plot drew every gear at every speed, baseline and variant (3 × 4 × 2)
-    page.wait_for_function(f"() => ({REGIME_POINTS})() == 24", timeout=60_000)
-    with page.expect_download(timeout=60_000) as dl:
+    page.wait_for_function(f"() => ({REGIME_POINTS})() == 24", timeout=120_000)
+    with page.expect_download(timeout=120_000) as dl:
         page.locator(".gb-csv button").first.click()
     text = open(dl.value.path(), encoding="utf-8").read().splitlines()
     assert text[0].startswith("gear,rpm,regime,impacts_per_s,intensity,loudness_sone")

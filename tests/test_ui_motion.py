@@ -142,3 +142,67 @@ def test_the_drawn_gear_stays_between_the_teeth_while_playing(page, dashboard_se
     assert a >= -1e-9 * j and r >= -1e-9 * j
     press(page, "pause")
     assert errors == []
+
+
+AUDIO_STATE = """() => {
+  const c = Bokeh.documents[0].get_model_by_name('motion_frames')._rattle_motion;
+  const a = c == null ? null : c.audio;
+  return {on: a != null, paused: a == null ? null : a.paused, rate: a == null ? null : a.playbackRate,
+          time: a == null ? null : a.currentTime, clock_s: c == null ? null : c.t / 1000};
+}"""
+
+
+def test_the_rattle_sound_plays_in_step_in_physical_units(page, dashboard_server):
+    """Units mode, Sound on, Play at 0.1×: the sound card's audio plays at rate 0.1 from the
+    clock's instant (ms of the window ↔ s of the sound), and Pause stops it."""
+    page.set_default_navigation_timeout(180_000)
+    errors = open_dashboard(page, dashboard_server, "?units=true")
+    page.wait_for_function(READY, timeout=60_000)
+    page.wait_for_function("(el) => el.src.length > 100",
+                           arg=page.locator(".sound-audio audio").first.element_handle(),
+                           timeout=60_000)
+    press(page, "sound")
+    press(page, "play")
+    page.wait_for_function(f"() => {{ const a = ({AUDIO_STATE})(); return a.on && !a.paused "
+                           "&& a.time > 0.005; }", timeout=30_000)
+    a = page.evaluate(AUDIO_STATE)
+    assert a["rate"] == pytest.approx(0.1, rel=1e-12)
+    # the clock in ms and the sound's position in s stay together (within a few frames)
+    assert abs(a["time"] - a["clock_s"]) < 0.05
+    press(page, "pause")
+    page.wait_for_function(f"() => !({AUDIO_STATE})().on", timeout=20_000)
+    paused = page.evaluate("(el) => el.paused", page.locator(".sound-audio audio").first.element_handle())
+    assert paused
+    assert errors == []
+
+
+def test_loop_wraps_next_impact_and_play_to_the_window_start(page, dashboard_server):
+    """With the clock at the window's end, "Next impact" goes to the first impact when Loop is
+    on and stays when it is off; Play at 1× from near the end wraps to the start with Loop on."""
+    errors = open_motion(page, dashboard_server)
+    want = default_impacts()
+    to_end = """() => { const f = Bokeh.documents[0].get_model_by_name('motion_frames');
+      f._rattle_motion.t = f.data.t[f.data.t.length - 1]; return f._rattle_motion.t; }"""
+    press(page, "pause")  # the clock starts at the window's start
+    page.wait_for_function(f"() => ({DRAWN})().t != null", timeout=20_000)
+    end = page.evaluate(to_end)
+    press(page, "next")
+    page.wait_for_function(f"() => ({DRAWN})().t == {float(want[0])!r}", timeout=20_000)
+    press(page, "loop")  # off
+    page.wait_for_function("() => !Bokeh.documents[0].get_model_by_name('motion_loop').active",
+                           timeout=20_000)
+    assert page.evaluate(to_end) == end
+    press(page, "next")
+    page.evaluate(AFTER_FRAMES, 5)
+    assert page.evaluate(DRAWN)["t"] == end
+    press(page, "loop")  # on again
+    page.wait_for_function("() => Bokeh.documents[0].get_model_by_name('motion_loop').active",
+                           timeout=20_000)
+    page.evaluate("""() => { const f = Bokeh.documents[0].get_model_by_name('motion_frames');
+      Bokeh.documents[0].get_model_by_name('motion_speed').value = 0;
+      f._rattle_motion.t = f.data.t[f.data.t.length - 1] - 0.5; }""")
+    press(page, "play")
+    page.wait_for_function(f"() => {{ const d = ({DRAWN})(); return d.playing && d.t < {end - 1.0!r}; }}",
+                           timeout=30_000)
+    press(page, "pause")
+    assert errors == []

@@ -188,8 +188,7 @@ def metrics_rows(cls: Any, tr: Any, phys: Any = None,
              ("impacts recorded", f"{len(tr.impact_t)} in {tr.periods:.0f} periods{seconds}")]
     if est:
         n = next(iter(est.values())).n
-        rows.append(("±", f"95 % interval of this run ({n} batch means); chaotic statistics "
-                          "also scatter between runs and with the noise level"))
+        rows.append(("±", f"95 % interval: {n} batch means of this run"))
     return rows
 
 

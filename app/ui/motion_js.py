@@ -37,8 +37,11 @@ function ctx() {
           active: M.active[0], reverse: M.reverse[0], tooth: M.tooth[0], gear: M.gear[0]};
 }
 
+// the last i with T[i] <= t (0 when t < T[0])
 function index(T, t) {
   let lo = 0, hi = T.length - 1;
+  if (hi < 0 || t < T[0]) return 0;
+  if (t >= T[hi]) return hi;
   while (hi - lo > 1) { const mid = (lo + hi) >> 1; if (T[mid] <= t) lo = mid; else hi = mid; }
   return lo;
 }

@@ -23,18 +23,11 @@ from ..state import ExplorerState
 from ..ui.job_panel import JobPanel
 from ..ui.widgets import message
 from ..work.atlas import Curves, atlas_curves, from_job, to_core
+from .continuation import _named
 
 #: A path of one blank point: Bokeh reports an error for a line glyph with no coordinates.
 _BLANK = np.full((1, 2), np.nan)
 _SVG_DASH = {"solid": "", "dashed": "6,4", "dotdash": "2,3,6,3", "dotted": "2,3"}
-
-
-def _named(glyph: str):
-    def hook(plot: Any, element: Any) -> None:
-        renderer = plot.handles.get("glyph_renderer")
-        if renderer is not None:
-            renderer.name = glyph
-    return hook
 
 
 def curves_overlay(curves: Curves | None, prefix: str = "atlas") -> hv.Overlay:

@@ -78,7 +78,8 @@ class CurveView(pn.viewable.Viewer):
             return None
         value = current_value(swept(s), s)
         lo, hi = full_range(swept(s), s.phases, value)
-        marks = b.marks[b.marks["kind"].isin(KINDS)]
+        # the continued orbit's own bifurcations: the tracer starts from that branch alone
+        marks = b.marks[b.marks["kind"].isin(KINDS) & (b.marks["branch"] == 0)]
         if not len(marks):
             return None
         d = np.abs(marks["x"].to_numpy() - value)

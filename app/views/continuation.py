@@ -6,7 +6,9 @@ URL), and the view runs :func:`app.work.branch.continue_both_ways` as the sessio
 ``continuation`` job (progress, cancel, killed with the session; disk-cached, so a reopened
 link redraws the branch from the cache). The result goes to ``state.branch``, which the
 diagram draws with :func:`branch_overlay`: stable parts solid, unstable parts dashed,
-bifurcations marked and labelled. Beside the status, a small plot shows the Floquet
+bifurcations marked and labelled, each branch in its own colour with a legend entry that
+names its period and where it starts (the branches that period doublings start, the cascade,
+are followed in the same job). Beside the status, a small plot shows the Floquet
 multipliers of the branch point nearest the current value of the swept parameter against the
 unit circle.
 
@@ -24,7 +26,8 @@ import pandas as pd
 import panel as pn
 import param
 
-from ..work.branch import FIND_TRANSIENT, Branch, from_job, continue_both_ways, is_periodic
+from ..work.branch import (FIND_TRANSIENT, MAX_SWITCHED, Branch, from_job, continue_both_ways,
+                           is_periodic)
 from ..core import paper_phi2_to_core
 from ..work.diagram_data import current_value, diagram_key, full_range
 from ..state import ExplorerState
@@ -33,6 +36,8 @@ from ..ui.labels import not_periodic_text
 from ..ui.widgets import message
 
 BRANCH_COLOR = "#6c3483"
+#: One colour per branch: the continued orbit's first, then those started at period doublings.
+BRANCH_COLORS = (BRANCH_COLOR, "#117a65", "#b9770e", "#1a5276", "#922b21")
 STABLE_COLOR, UNSTABLE_COLOR = "#1e8449", "#c0392b"
 
 
@@ -59,59 +64,88 @@ def _named(glyph: str):
     return hook
 
 
+def _legend_entry(number: int, label: str):
+    """A HoloViews hook adding the line's renderer to branch ``number``'s entry of the legend
+    ``cont-legend`` (made on first use), labelled ``label`` and hidden when ``label`` is empty.
+
+    The legend is Bokeh's, not HoloViews': a HoloViews label that changes makes a new renderer
+    at every new branch, while these lines keep theirs.
+    """
+    def hook(plot: Any, element: Any) -> None:
+        from bokeh.core.properties import value
+        from bokeh.models import Legend, LegendItem
+        renderer = plot.handles.get("glyph_renderer")
+        fig = plot.state
+        if renderer is None or fig is None:
+            return
+        legend = next((m for m in fig.center if isinstance(m, Legend) and m.name == "cont-legend"),
+                      None)
+        if legend is None:
+            legend = Legend(name="cont-legend", location="bottom_right", label_text_font_size="8pt",
+                            background_fill_alpha=0.6, padding=4, spacing=0, click_policy="hide")
+            fig.add_layout(legend)
+        item = next((it for it in legend.items if it.name == f"cont-branch-{number}"), None)
+        if item is None:
+            item = LegendItem(name=f"cont-branch-{number}", label=value(label), renderers=[])
+            legend.items = sorted([*legend.items, item], key=lambda it: it.name)
+        if renderer not in item.renderers:
+            item.renderers = [*item.renderers, renderer]
+        if getattr(item.label, "value", None) != label:  # a value: a plain string means a column
+            item.label = value(label)
+        item.visible = bool(label)
+    return hook
+
+
 #: A path of one blank point: Bokeh reports an error for a line glyph with no coordinates.
 _BLANK = np.full((1, 2), np.nan)
 
 
+def joined(segments: list[np.ndarray]) -> np.ndarray:
+    """Polylines as one ``(x, y)`` array, NaN rows between them (one line glyph draws them)."""
+    if not segments:
+        return _BLANK
+    gap = np.full((1, 2), np.nan)
+    return np.concatenate([part for seg in segments for part in (seg, gap)][:-1])
+
+
 def branch_overlay(branch: Branch | None, name: str,
                    limits: tuple[tuple[float, float], tuple[float, float]] | None = None) -> hv.Overlay:
-    """The branch on the diagram: stable solid, unstable dashed, bifurcations marked and
-    labelled (empty elements when there is no branch for diagram ``name``).
+    """The branches on the diagram: stable solid, unstable dashed, one colour and one legend
+    entry per branch, bifurcations marked and labelled (empty, unlabelled elements where there
+    is no branch for diagram ``name``).
 
     Each bifurcation is labelled once, inside ``limits`` (the view's ranges): near the right
     edge to its left, and close neighbours a row apart, so labels neither clip nor overlap.
-    The glyphs are named (``cont-stable``, ``cont-unstable``, ``cont-marks``) for
-    :func:`branch_legend`.
     """
     kdims = [hv.Dimension("x"), hv.Dimension("y")]
     ok = branch is not None and branch.name == name
-    stable = branch.segments(True) if ok else []
-    unstable = branch.segments(False) if ok else []
+    held = branch.numbers if ok else []
+    lines = []
+    for i in range(1 + MAX_SWITCHED):
+        here = i in held
+        label = branch.legend(i) if here else ""
+        suffix = f"-{i}" if i else ""
+        colour = BRANCH_COLORS[i % len(BRANCH_COLORS)]
+        lines += [
+            hv.Curve(joined(branch.segments(True, i)) if here else _BLANK, *kdims).opts(
+                color=colour, line_width=2.5,
+                hooks=[_named("cont-stable" + suffix), _legend_entry(i, label)]),
+            hv.Curve(joined(branch.segments(False, i)) if here else _BLANK, *kdims).opts(
+                color=colour, line_width=2, line_dash="dashed",
+                hooks=[_named("cont-unstable" + suffix), _legend_entry(i, label)])]
     marks = branch.marks[["x", "y", "label", "message"]].reset_index(drop=True) if ok else None
     if marks is None or not len(marks):  # one blank row: Bokeh cannot draw empty text columns
         marks = pd.DataFrame({"x": [np.nan], "y": [np.nan], "label": [""], "message": [""]})
     left, right = mark_labels(branch.marks if ok else None, limits)
     text = {"text_font_size": "9pt", "text_color": "black", "text_baseline": "bottom"}
     return hv.Overlay([
-        hv.Path(stable or [_BLANK], kdims).opts(
-            color=BRANCH_COLOR, line_width=2.5, hooks=[_named("cont-stable")]),
-        hv.Path(unstable or [_BLANK], kdims).opts(
-            color=BRANCH_COLOR, line_width=2, line_dash="dashed", hooks=[_named("cont-unstable")]),
+        *lines,
         hv.Points(marks, kdims, ["label", "message"]).opts(
             color="black", fill_color="white", size=9, marker="diamond", line_width=1.5,
             tools=["hover"], hooks=[_named("cont-marks")]),
         hv.Labels(left, kdims, ["label"]).opts(text_align="left", hooks=[_named("cont-labels")], **text),
         hv.Labels(right, kdims, ["label"]).opts(text_align="right", hooks=[_named("cont-labels-r")],
                                                 **text)])
-
-
-#: The branch's legend: glyph name → label.
-LEGEND = {"cont-stable": "continued branch, stable", "cont-unstable": "unstable",
-          "cont-marks": "bifurcation: PD period doubling, fold, graze, stick"}
-
-
-def branch_legend(fig: Any, shown: bool) -> None:
-    """A legend of the branch's own glyphs in ``fig`` (the diagram), visible while ``shown``."""
-    from bokeh.models import Legend, LegendItem
-    legend = next((m for m in fig.center if isinstance(m, Legend) and m.name == "branch-key"), None)
-    glyphs = {r.name: r for r in fig.renderers if r.name in LEGEND}
-    if legend is None and len(glyphs) == len(LEGEND):
-        legend = Legend(name="branch-key", location="bottom_left", label_text_font_size="8pt",
-                        background_fill_alpha=0.7, spacing=0, padding=4,
-                        items=[LegendItem(label=text, renderers=[glyphs[n]]) for n, text in LEGEND.items()])
-        fig.add_layout(legend)
-    if legend is not None and legend.visible != shown:
-        legend.visible = shown
 
 
 def mark_labels(marks: Any, limits: Any) -> tuple[pd.DataFrame, pd.DataFrame]:

@@ -32,7 +32,7 @@ from holoviews.operation.datashader import datashade, dynspread
 from ..work import tasks
 from ..work.diagram_data import (RECORD, TRANSIENT, ZOOM_VALUES, Diagram, current_value,
                                  diagram_key, from_work, marks, one_sided, request, shipped)
-from .continuation import branch_legend, branch_overlay
+from .continuation import branch_overlay
 from ..ui.labels import ACTIVE_COLOR, CHAOS_COLOR, MARK_COLOR, ONSET_COLOR, REVERSE_COLOR, num
 from ..ui.plots import TOOLS, HoloViewsPane, Zoom, caption, file_stem, padded, save_as, weak_hook
 from ..state import ExplorerState
@@ -283,7 +283,6 @@ class DiagramView(pn.viewable.Viewer):
         for tool in plot.state.toolbar.tools:
             if isinstance(tool, WheelZoomTool) and tool.dimensions != "width":
                 tool.dimensions = "width"  # the swept axis only: a zoom in impulse soon shows nothing
-        branch_legend(plot.state, self.state.branch is not None)
         save_as(lambda: self._stem)(plot, element)
 
     def _redraw(self) -> None:

@@ -198,16 +198,17 @@ class RegimeView(pn.viewable.Viewer):
 
     def __init__(self, **params: Any):
         super().__init__(**params)
-        self.badge = pn.pane.HTML("", css_classes=["regime-badge"], min_width=300,
-                                  styles={"flex": "1 1 300px"})
-        self.metrics = pn.pane.HTML("", css_classes=["rattle-metrics"], min_width=330,
-                                    styles={"flex": "1 1 330px"})
+        self.badge = pn.pane.HTML("", css_classes=["regime-badge"], sizing_mode="stretch_width",
+                                  min_width=260)
+        # a fixed width, so a long value (an interval, SI units) wraps instead of squeezing the
+        # badge beside it
+        self.metrics = pn.pane.HTML("", css_classes=["rattle-metrics"], width=430,
+                                    styles={"white-space": "normal"})
         self.state.param.watch(self._draw, "result")
         self._draw()
 
     def __panel__(self):
-        # a long metrics table goes below the badge rather than squeezing it to nothing
-        return pn.FlexBox(self.badge, self.metrics, flex_wrap="wrap", sizing_mode="stretch_width")
+        return pn.Row(self.badge, self.metrics, sizing_mode="stretch_width")
 
     def _draw(self, *_: Any) -> None:
         run = self.state.result

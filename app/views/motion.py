@@ -181,8 +181,7 @@ class MotionView(pn.viewable.Viewer):
         run = self.state.result
         if run is None:
             return
-        tr = run.tr
-        data = motion_frames(tr, min(self.state.shown, int(tr.periods)), run.phys,
+        data = motion_frames(run.tr, self.state.shown, run.phys,
                              angle=self.state.backlash_unit == "deg")
         self.data = data
         f, j = data["frames"], data["meta"]["j"][0]

@@ -6,7 +6,10 @@ orbit the page's run settles on (``find_orbit`` from the run's initial state), f
 towards smaller values (both are cheap: under a second each for the paper's branches), and
 returns plain arrays: each result's :meth:`ContinuationResult.arrays` under ``up/`` and
 ``down/``, the impulses of each bifurcation's orbit (where its mark goes on the diagram) and a
-JSON record of statuses, messages, provenances and cache keys.  The same arrays are the disk
+JSON record of statuses, messages, provenances and cache keys.  Then it switches branches at
+the period doublings it found, as ``rattle continue --branches`` does, breadth first: the
+doubled orbit's branch (``pd1/``), the branches at that one's doublings (``pd2/``, ...), up to
+:data:`MAX_SWITCHED` of them: the period-doubling cascade.  The same arrays are the disk
 cache's entry (``rattle_core.store.cache.cached``, prefix ``cont``), written as ``.npz`` and
 read back without pickle.  The request that keys it holds what the results' provenance
 holds: the parameters, the continued parameter, the bounds, the start (here the simulation
@@ -33,6 +36,8 @@ MAX_POINTS, DS, DS_MAX = 1000, 0.01, 0.1
 #: Periods simulated before the first orbit is taken (at least the page's transient).
 FIND_TRANSIENT = 2000
 DIRECTIONS = {"up": 1, "down": -1}
+#: Branches followed from period doublings, beyond the continued orbit's own (the cascade).
+MAX_SWITCHED = 4
 #: Short labels of bifurcation kinds on the diagram.
 SHORT = {"fold": "fold", "period_doubling": "PD", "neimark_sacker": "NS", "grazing": "graze",
          "stick_onset": "stick", "stick_end": "stick end", "sequence_change": "sequence",
@@ -70,7 +75,8 @@ def request(params: Any, phys: Any, name: str, bounds: tuple[float, float],
             "start": {"x0": start.get("x0"), "v0": float(start.get("v0", 0.0)),
                       "t0": float(start.get("t0", 0.0)), "transient": int(start["transient"])},
             "settings": {"directions": list(DIRECTIONS), "ds": DS, "ds_max": DS_MAX,
-                         "max_points": MAX_POINTS},
+                         "max_points": MAX_POINTS, "switch": "period_doubling",
+                         "max_switched": MAX_SWITCHED},
             "solver": SOLVER_VERSION, "continuation": CONTINUATION_VERSION}
 
 
@@ -87,24 +93,45 @@ def continue_both_ways(params: Any, phys: Any, name: str, bounds: tuple[float, f
     from .jobs import cancelled, report
 
     def compute() -> Branches:
-        from ..core import continue_orbit, find_orbit
+        from ..core import ContinuationError, continue_orbit, find_orbit
         orbit = find_orbit(params, x0=start.get("x0"), v0=float(start.get("v0", 0.0)),
                            t0=float(start.get("t0", 0.0)), transient=int(start["transient"]))
-        arrays, meta = {}, {"start": orbit.summary()}
-        for k, (d, sign) in enumerate(DIRECTIONS.items()):
-            res = continue_orbit(orbit, name, bounds=bounds, direction=sign, ds=DS, ds_max=DS_MAX,
+        arrays, meta = {}, {"start": orbit.summary(), "switched": []}
+        runs = 2 + MAX_SWITCHED
+        todo: list = []
+
+        def follow(k: int, key: str, first: Any, **kw: Any) -> Any:
+            res = continue_orbit(first, name, bounds=bounds, ds=DS, ds_max=DS_MAX,
                                  max_points=MAX_POINTS,
                                  physical=phys if name in ("rpm", "drag_torque") else None,
-                                 progress=lambda n, m, k=k: report(k * m + n, 2 * m),
-                                 cancel=cancelled)
-            arrays.update({f"{d}/{key}": v for key, v in res.arrays().items()})
+                                 progress=lambda n, m: report(k * m + n, runs * m),
+                                 cancel=cancelled, **kw)
+            arrays.update({f"{key}/{a}": v for a, v in res.arrays().items()})
             which = np.concatenate([[i] * b.orbit.n_impacts for i, b in enumerate(res.bifurcations)]
                                    or [np.zeros(0)]).astype(np.int64)
             imp = np.concatenate([b.orbit.impulse for b in res.bifurcations] or [np.zeros(0)])
-            arrays[f"{d}/marks/bifurcation"] = which
-            arrays[f"{d}/marks/impulse"] = np.asarray(imp, dtype=np.float64)
-            meta[d] = {"status": res.status, "message": res.message, "key": res.cache_key(),
-                       "provenance": res.provenance, "seconds": res.seconds}
+            arrays[f"{key}/marks/bifurcation"] = which
+            arrays[f"{key}/marks/impulse"] = np.asarray(imp, dtype=np.float64)
+            meta[key] = {"status": res.status, "message": res.message, "key": res.cache_key(),
+                         "provenance": res.provenance, "seconds": res.seconds}
+            todo.extend(b for b in res.bifurcations
+                        if b.kind == "period_doubling" and b.can_restart)
+            return res
+        for k, (d, sign) in enumerate(DIRECTIONS.items()):
+            if follow(k, d, orbit, direction=sign).cancelled:
+                return Branches(arrays, meta)
+        k = 0
+        while todo and k < MAX_SWITCHED and not cancelled():
+            pd = todo.pop(0)
+            key = f"pd{k + 1}"
+            try:
+                res = follow(2 + k, key, pd)
+            except ContinuationError as exc:  # the doubled branch could not be started: go on
+                meta.setdefault("skipped", []).append(f"{pd.value:.10g}: {exc}")
+                continue
+            meta["switched"].append(key)
+            meta[key]["from"] = {"value": float(pd.value), "period": int(pd.orbit.period)}
+            k += 1
             if res.cancelled:
                 break
         return Branches(arrays, meta)
@@ -154,14 +181,28 @@ class Branch:
     meta: dict
     from_cache: bool
 
-    def segments(self, stable: bool) -> list[np.ndarray]:
+    @property
+    def numbers(self) -> list[int]:
+        """The branches held: 0 is the continued orbit's, 1, 2, ... start at period doublings."""
+        return sorted(int(b) for b in self.points["branch"].unique()) if len(self.points) else []
+
+    def legend(self, number: int) -> str:
+        """The legend of branch ``number``: its period, and where it comes from."""
+        period = int(self.points.loc[self.points["branch"] == number, "period"].iloc[0])
+        if number == 0:
+            return f"period {period}, from {self.start:.5g}"
+        key = self.meta.get("switched", [])[number - 1]
+        return f"period {period}, PD at {self.meta[key]['from']['value']:.5g}"
+
+    def segments(self, stable: bool, number: int | None = None) -> list[np.ndarray]:
         """``(x, impulse)`` polylines of one impact each, where the branch is (un)stable.
 
         A segment runs over consecutive points of one direction; it ends where stability
         changes, and holds the first point of the other kind so that the two styles meet.
+        ``number`` keeps one branch (see :attr:`numbers`); None keeps them all.
         """
         out = []
-        imp = self.impacts
+        imp = self.impacts if number is None else self.impacts[self.impacts["branch"] == number]
         for (_, k), g in imp.groupby(["direction", "impact"], sort=False):
             g = g.sort_values("point")
             x, y = g["x"].to_numpy(), g["y"].to_numpy()
@@ -179,9 +220,11 @@ class Branch:
         return out
 
     def nearest(self, value: float) -> dict | None:
-        """The branch point nearest ``value`` of the parameter: its value, multipliers and
-        stability (None if the branch has no point)."""
+        """The continued orbit's branch point nearest ``value`` of the parameter: its value,
+        multipliers and stability (None if the branch has no point)."""
         p = self.points
+        if len(p):
+            p = p[p["branch"] == 0]
         if not len(p):
             return None
         i = int(np.argmin(np.abs(p["x"].to_numpy() - value)))
@@ -200,8 +243,10 @@ class Branch:
             f"{TOWARDS[d]} {STOPPED.get(self.meta[d]['status'], self.meta[d]['status'].replace('_', ' '))}"
             for d in DIRECTIONS if d in self.meta)
         src = "read from the disk cache" if self.from_cache else "computed"
+        more = len(self.meta.get("switched", []))
+        switched = f" · {more} more branch{'es' if more > 1 else ''} from period doublings" if more else ""
         return (f"Continued branch: {n} points ({stable} stable, {n - stable} unstable)"
-                f"{' · ' + found if found else ''} · stopped {ends} · {src}")
+                f"{' · ' + found if found else ''} · stopped {ends}{switched} · {src}")
 
 
 def to_axis(name: str, phases: str, phys: Any, values: np.ndarray,
@@ -223,7 +268,8 @@ def from_job(name: str, phases: str, phys: Any, key: tuple, start: float, out: d
     from ..core import ContinuationResult
     arrays, meta = out["arrays"], out["meta"]
     points, impacts, marks = [], [], []
-    for d in DIRECTIONS:
+    parts = [(d, 0) for d in DIRECTIONS] + [(k, i + 1) for i, k in enumerate(meta.get("switched", []))]
+    for d, number in parts:
         if not any(k.startswith(d + "/") for k in arrays):
             continue
         t = ContinuationResult.tables({k[len(d) + 1:]: v for k, v in arrays.items()
@@ -239,10 +285,11 @@ def from_job(name: str, phases: str, phys: Any, key: tuple, start: float, out: d
             kinds = bif["kind"].to_numpy()[which]
             marks.append(pd.DataFrame({"x": x, "y": y, "kind": kinds,
                                        "label": [SHORT.get(k, k) for k in kinds],
-                                       "message": bif["message"].to_numpy()[which]}))
-        points.append(p.assign(direction=d))
-        impacts.append(imp.assign(direction=d))
-    cols = ["x", "y", "kind", "label", "message"]
+                                       "message": bif["message"].to_numpy()[which],
+                                       "branch": number}))
+        points.append(p.assign(direction=d, branch=number))
+        impacts.append(imp.assign(direction=d, branch=number))
+    cols = ["x", "y", "kind", "label", "message", "branch"]
     return Branch(name=name, key=key, start=start,
                   points=pd.concat(points, ignore_index=True) if points else pd.DataFrame(),
                   impacts=pd.concat(impacts, ignore_index=True) if impacts else pd.DataFrame(),

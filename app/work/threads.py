@@ -6,15 +6,17 @@ Two sessions can therefore run Python at once, and HoloViews keeps process-wide 
 (streams, options) that are not safe against that. So:
 
 * :data:`HV_LOCK` is held while HoloViews builds streams or plots and while a session redraws;
+* :func:`unlocked` lets go of it around computation (a simulation never holds it);
 * :func:`later` runs a state change that comes from a HoloViews stream callback (a click, a
   zoom, which HoloViews runs outside the document's lock) on the session's next tick, where
   Bokeh holds the lock.
 """
 from __future__ import annotations
 
+import contextlib
 import logging
 import threading
-from typing import Any
+from typing import Any, Iterator
 
 import panel as pn
 
@@ -26,6 +28,24 @@ log = logging.getLogger(__name__)
 #: while another builds a plot breaks the walk of the stream registry ("dictionary changed
 #: size during iteration").
 HV_LOCK = threading.RLock()
+
+
+@contextlib.contextmanager
+def unlocked() -> Iterator[None]:
+    """:data:`HV_LOCK` let go by this thread for the block, however deeply it holds it.
+
+    Computation never holds the lock: a session that simulates inside a redraw (a change
+    arrives under the lock) lets the other sessions draw meanwhile, and takes it back after.
+    """
+    depth = 0
+    while HV_LOCK._is_owned():
+        HV_LOCK.release()
+        depth += 1
+    try:
+        yield
+    finally:
+        for _ in range(depth):
+            HV_LOCK.acquire()
 
 
 def later(fn: Any, *args: Any) -> None:

@@ -19,7 +19,8 @@ from rattle_core.analysis.continuation.plane import _Plane
 from rattle_core.paper.drawing import atlas_png
 from rattle_core.store.exports import TABLE_SUFFIXES, write_table
 
-from ..common import CLIError, Progress, add_command, axis_label, check_output, info, label, meta
+from ..common import (CLIError, Progress, add_command, axis_label, check_output,
+                      distinct_outputs, info, label, meta)
 from ..options import add_model_options, build_params
 
 HELP = "follow a bifurcation in a second parameter: its curve to CSV"
@@ -104,7 +105,10 @@ def run(args: argparse.Namespace) -> int:
     import pandas as pd
 
     out = check_output(args.out, TABLE_SUFFIXES, "--out")
+    c2_path = check_output(str(out.with_name(out.stem + "_codim2" + out.suffix)), TABLE_SUFFIXES,
+                           "the codim2 table beside --out")
     png = check_output(args.png, (".png",), "--png") if args.png else None
+    distinct_outputs(out, c2_path, png)
     start, param, direction, kind, nth = parse_spec(args.spec)
     bounds = _pair(args.bounds, "--bounds")
     bounds1 = _pair(args.bounds1, "--bounds1")
@@ -145,7 +149,6 @@ def run(args: argparse.Namespace) -> int:
     file_meta = meta(params, phys)
     file_meta.update(kind=curve.kind, param1=curve.param1, param2=curve.param2,
                      provenance=curve.provenance)
-    c2_path = out.with_name(out.stem + "_codim2" + out.suffix)
     write_table(curve.points, out, file_meta)
     write_table(pd.DataFrame(curve.codim2_table()), c2_path, file_meta)
     info(args, f"{curve.kind} curve: {len(curve.points)} points, {curve.status}: "

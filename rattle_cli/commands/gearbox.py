@@ -13,7 +13,7 @@ from rattle_core.paper.drawing import verdict_png
 from rattle_core.store.exports import write_table
 from rattle_core.store.verdicts import cached_verdict
 
-from ..common import CLIError, Progress, add_command, check_output, info
+from ..common import CLIError, Progress, add_command, check_output, distinct_outputs, info
 
 HELP = "which loose gears rattle, from which rpm, how loud: GEARBOX.toml to a verdict CSV"
 
@@ -70,6 +70,7 @@ def run(args: argparse.Namespace) -> int:
     png = None
     if args.png is not None:
         png = check_output(args.png or str(out.with_suffix(".png")), (".png",), "--png")
+    distinct_outputs(out, png)
     gearbox = Gearbox.from_toml(args.file)
     if args.transfer is not None:
         try:

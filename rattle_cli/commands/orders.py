@@ -7,7 +7,7 @@ from rattle_core.model.orders import DEFAULT_ORDERS, OrderMap, check_orders
 from rattle_core.paper.drawing import orders_png
 from rattle_core.store.exports import write_table
 
-from ..common import CLIError, add_command, check_output, info
+from ..common import CLIError, add_command, check_output, distinct_outputs, info
 
 HELP = "engine orders of a measured speed (time_s, speed_rpm) per rpm bin, to CSV"
 
@@ -35,6 +35,7 @@ def run(args: argparse.Namespace) -> int:
     png = None
     if args.png is not None:
         png = check_output(args.png or str(out.with_suffix(".png")), (".png",), "--png")
+    distinct_outputs(out, png)
     try:
         orders = check_orders(args.orders)
     except ValueError as exc:

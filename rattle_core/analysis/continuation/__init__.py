@@ -95,6 +95,8 @@ pseudo-arclength method with the extended system (``continue_bifurcation``).
 * ``defining``: the defining conditions (multiplier ±1, grazing, onset of sticking) and the
   extended system's residual, exact Jacobian, tangent and Newton corrector.
 * ``contact``: the contact boundary ``Λ_c = 1/max(−ÿ)`` as a curve, with its corners.
+* ``stickend``: the end of sticking (an orbit that sticks has no shooting equations): natural
+  steps in the second parameter, the end located in the first.
 * ``codim2``: codimension-two points: test functions, location, restart onto the other curve.
 * ``twoparam``: :class:`BifurcationCurve` and the loop that follows a curve both ways.
 * ``bifcurve``: :func:`continue_bifurcation`, which checks the request and starts the curve.

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .defining import _null_vector
 from .orbits import PeriodicOrbit, _impact_orbit
 from .parameter import _Param
 from .shooting import NEWTON_TOL, _newton, _set_params, _system
@@ -33,24 +34,7 @@ class _Branch:
     def tangent(self, z, q, prev: np.ndarray | None):
         """Unit null vector of ``[∂F/∂z | ∂F/∂q]``, oriented along ``prev``."""
         F, J, Fp = self.system(z, q)
-        A = np.hstack([J, Fp[:, None]])
-        t = None
-        if prev is not None:
-            B = np.vstack([A, prev[None, :]])
-            rhs = np.zeros(self.m2 + 1)
-            rhs[-1] = 1.0
-            try:
-                t = np.linalg.solve(B, rhs)
-                if not np.all(np.isfinite(t)):
-                    t = None
-            except np.linalg.LinAlgError:
-                t = None
-        if t is None:
-            t = np.linalg.svd(A)[2][-1]
-        t = t / np.linalg.norm(t)
-        if prev is not None and float(t @ prev) < 0.0:
-            t = -t
-        return t
+        return _null_vector(np.hstack([J, Fp[:, None]]), prev)
 
     def correct(self, X_pred, tau, maxit=12):
         z = X_pred[:-1].copy()

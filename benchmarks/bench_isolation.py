@@ -1,0 +1,144 @@
+"""Does one user's link slow another user?  A session's redraw while the audit's worst link runs.
+
+Session B is a :class:`app.dashboard.Dashboard` attached to a Bokeh ``Document``, as the
+server holds it; each redraw types a new Λ into its Λ control (the path a slider release
+takes: the run, every view, the PATCH-DOC message).  Its redraw times are measured idle
+(the baseline, in the same run) and then while another user keeps opening pages, one after
+the other, on
+
+* a plain link (the cost of someone opening a page at all: building its widgets and plots
+  holds the HoloViews lock, as every redraw does);
+* the audit's worst link (32 harmonics of amplitude 100 in a backlash of 0.01, 300 periods,
+  and the same with ``transient=100000``): before the page's run had a budget, each of these
+  simulated for minutes holding the lock every redraw needs (115 s for another session's
+  redraw in the audit);
+* a heavy link within the budget (10 harmonics, 20000 + 100000 periods), which runs in a
+  worker process.
+
+Prints p50/p95/max of B's redraws in each case, the ratio to idle and to the plain link, and
+how long each page took to answer.  Target: B's p95 under 1 s while the worst link runs; on
+a loaded machine, read it against the plain link's figure.
+
+    .venv/bin/python benchmarks/bench_isolation.py [--redraws 30]
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import threading
+import time
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+TARGET_S = 1.0
+HARMONICS = ",".join(f"{k}:100:0" for k in range(3, 33))
+WORST = f"?r=1&j=0.01&h2=100&phi2=0&harmonics={HARMONICS}&periods=1&transient=300&shown=1"
+WORST_LONG = WORST.replace("transient=300", "transient=100000")
+HEAVY = ("?harmonics=" + ",".join(f"{k}:0.01:0" for k in range(3, 11))
+         + "&periods=20000&transient=100000")
+
+
+def redraws(dash, values) -> list[float]:
+    """Seconds of each redraw of ``dash`` to the Λ values given (full update + PATCH-DOC)."""
+    from bokeh.protocol import Protocol
+
+    proto, events, out = Protocol(), [], []
+    doc = dash._bench_doc
+    doc.on_change(events.append)
+    box = dash.controls.fields["lam"].box
+    for v in values:
+        events.clear()
+        t = time.perf_counter()
+        box.value = float(v)
+        proto.create("PATCH-DOC", list(events))
+        out.append(time.perf_counter() - t)
+    doc.remove_on_change(events.append)
+    return out
+
+
+def summary(s: list[float]) -> str:
+    q = np.percentile(s, [50, 95])
+    return f"p50 {q[0]:7.3f} s   p95 {q[1]:7.3f} s   max {max(s):7.3f} s"
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--redraws", type=int, default=30, help="redraws of session B per case")
+    args = ap.parse_args()
+
+    from bokeh.document import Document
+    from panel.io.location import Location
+
+    from app.dashboard import Dashboard
+    from app.main import configure, warm_up
+    from app.work.jobs import JobPool
+    from app.work.tasks import warm_up as warm_worker
+
+    configure()
+    warm_up(pool=False)
+    pool = JobPool(size=2, warm=warm_worker)
+
+    def page(link: str = "") -> Dashboard:
+        dash = Dashboard(location=Location(search=link) if link else None, pool=pool)
+        dash._bench_doc = Document()
+        dash.layout.server_doc(dash._bench_doc)
+        return dash
+
+    b = page()
+    values = np.linspace(3.2, 3.4, args.redraws + 1)
+    redraws(b, values[:1])  # the first redraw compiles what is left
+    idle = redraws(b, values[1:])
+    print(f"session B idle, {args.redraws} redraws:           {summary(idle)}")
+    worst_p95 = 0.0
+    try:
+        plain_p95 = math.nan
+        for title, links in (("a plain link", ["?lam=3.0"]),
+                             ("the worst link (300 and 100000 transient periods)", [WORST, WORST_LONG]),
+                             ("a heavy link within the budget (in a worker)", [HEAVY])):
+            stop = threading.Event()
+            built: list[tuple[str, float, str]] = []
+
+            def hostile() -> None:
+                while not stop.is_set():
+                    for link in links:
+                        t = time.perf_counter()
+                        d = page(link)
+                        job = d.session.page.pending
+                        while job is not None and not job.finished and not stop.is_set():
+                            time.sleep(0.05)
+                        note = " ".join(d.state.messages.values())[:90]
+                        built.append((link[:30], time.perf_counter() - t, note))
+                        d.destroy()
+            other = threading.Thread(target=hostile, daemon=True)
+            other.start()
+            time.sleep(1.0)
+            loaded = redraws(b, values[::-1][1:])
+            stop.set()
+            other.join(300)
+            p95 = float(np.percentile(loaded, 95))
+            ratio = p95 / float(np.percentile(idle, 95))
+            if math.isnan(plain_p95):
+                plain_p95 = p95
+            print(f"\nsession B while another user opens {title}:")
+            print(f"  {summary(loaded)}   p95 / idle p95 = {ratio:.1f}×   "
+                  f"p95 / plain-link p95 = {p95 / plain_p95:.2f}×")
+            for link, secs, note in built[:3]:
+                print(f"  page {link}… answered in {secs:.2f} s{': ' + note if note else ''}")
+            print(f"  pages opened meanwhile: {len(built)}")
+            if "worst" in title:
+                worst_p95 = p95
+    finally:
+        b.destroy()
+        pool.shutdown()
+    verdict = "meets" if worst_p95 < TARGET_S else "MISSES"
+    print(f"\nB's p95 while the worst link runs: {worst_p95:.3f} s: {verdict} the "
+          f"{TARGET_S:.0f} s target")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
