@@ -110,6 +110,15 @@ def key_legend(fig: Any, entries: list[tuple[str, str]], name: str = "key") -> N
     legend.update(items=items, tags=[tag], visible=bool(entries))
 
 
+def named_glyph(glyph: str) -> Callable:
+    """A HoloViews hook naming the Bokeh glyph renderer (the page's tests find it by name)."""
+    def hook(plot: Any, element: Any) -> None:
+        renderer = plot.handles.get("glyph_renderer")
+        if renderer is not None:
+            renderer.name = glyph
+    return hook
+
+
 class HoloViewsPane(pn.pane.HoloViews):
     """``pn.pane.HoloViews`` whose plots are built under :data:`HV_LOCK`."""
 

@@ -31,7 +31,7 @@ from ..work.branch import (FIND_TRANSIENT, MAX_SWITCHED, Branch, from_job, conti
 from ..core import paper_phi2_to_core
 from ..work.diagram_data import current_value, diagram_key, full_range
 from ..state import ExplorerState
-from ..ui.plots import HoloViewsPane
+from ..ui.plots import HoloViewsPane, named_glyph
 from ..ui.labels import not_periodic_text
 from ..ui.widgets import message
 
@@ -55,13 +55,7 @@ def core_bounds(name: str, phases: str, lo: float, hi: float) -> tuple[float, fl
     return float(lo), float(hi)
 
 
-def _named(glyph: str):
-    """A HoloViews hook naming the Bokeh glyph renderer (the page's tests find it by name)."""
-    def hook(plot: Any, element: Any) -> None:
-        renderer = plot.handles.get("glyph_renderer")
-        if renderer is not None:
-            renderer.name = glyph
-    return hook
+_named = named_glyph
 
 
 def _legend_entry(number: int, label: str):

@@ -24,7 +24,7 @@ from rattle_core import simulate
 from ..core import TWO_PI
 from ..state import ExplorerState
 from ..ui.labels import ACTIVE_COLOR, REVERSE_COLOR, twin_text
-from ..ui.plots import TOOLS, HoloViewsPane, save_as
+from ..ui.plots import TOOLS, HoloViewsPane, named_glyph, save_as
 from ..ui.widgets import Choice, Field, message
 
 #: Forcing periods both gears are followed for, and samples per period.
@@ -134,18 +134,10 @@ class SensitivityView(pn.viewable.Viewer):
         slope = (t, gap[0] * np.exp(lam * t * TWO_PI)) if d and math.isfinite(lam) and lam > 0 \
             else (np.zeros(0), np.zeros(0))
         return (hv.Curve((t, gap), "t / period", "separation", label="|twin − first|").opts(
-                    color="#222222", logy=True, hooks=[_named("twin_gap")])
+                    color="#222222", logy=True, hooks=[named_glyph("twin_gap")])
                 * hv.Curve(slope, "t / period", "separation", label="e^{λt}, the run's λ").opts(
                     color="#8e44ad", line_dash="dotted", logy=True)).opts(
             hv.opts.Overlay(title="Separation in (x, ẋ), log scale", responsive=True, height=250,
                             tools=TOOLS, logy=True, legend_position="bottom_right",
                             framewise=True, hooks=[save_as(lambda: "rattle_twin_separation")]))
 
-
-def _named(name: str):
-    """A HoloViews hook naming the glyph renderer (the page's tests find it by name)."""
-    def hook(plot: Any, element: Any) -> None:
-        renderer = plot.handles.get("glyph_renderer")
-        if renderer is not None:
-            renderer.name = name
-    return hook
