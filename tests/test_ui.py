@@ -42,10 +42,12 @@ BIF_POINT = """(frac) => {
 
 
 def wait_bif(page, timeout: float = 120_000) -> None:
-    """Wait until the bifurcation diagram is drawn (its status counts the values swept)."""
+    """Wait until the bifurcation diagram is drawn (its status counts the values swept), and
+    bring it into view, where a click or the wheel reaches it."""
     page.locator(".bif-status").filter(has_text="swept").first.wait_for(timeout=timeout)
     page.wait_for_function("() => Bokeh.documents[0].get_model_by_name('bifurcation') != null",
                            timeout=timeout)
+    page.locator(".diagram").first.scroll_into_view_if_needed()
 
 
 def painted(page) -> None:
