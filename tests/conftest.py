@@ -75,6 +75,19 @@ def browser_context_args(browser_context_args):
     return {**browser_context_args, "viewport": {"width": 1400, "height": 1000}}
 
 
+#: How long a page may take to load: a session's page is built on the server before the first
+#: byte, which takes seconds on a loaded two-core machine.
+NAVIGATION_TIMEOUT_MS = 180_000
+
+
+@pytest.fixture(autouse=True)
+def _patient_navigation(request):
+    """Browser tests wait for a page load as long as a loaded CI machine may need."""
+    if "page" in request.fixturenames:
+        request.getfixturevalue("page").set_default_navigation_timeout(NAVIGATION_TIMEOUT_MS)
+    yield
+
+
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

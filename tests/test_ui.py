@@ -34,6 +34,7 @@ CHECKSUM = """() => {
 BIF_POINT = """(frac) => {
   const m = Bokeh.documents[0].get_model_by_name('bifurcation');
   const v = Bokeh.index.find_one(m);
+  v.el.scrollIntoView({block: 'center', inline: 'center'});  // below the fold on a tall page
   const r = v.el.getBoundingClientRect();
   const b = v.frame.bbox;
   const sx = b.left + frac * b.width;
@@ -138,6 +139,7 @@ def test_time_history_zoom_survives_a_parameter_change(page, dashboard_server):
     painted(page)
     m = page.evaluate("""() => { const v = Bokeh.index.find_one(
         Bokeh.documents[0].get_model_by_name('time_history'));
+      v.el.scrollIntoView({block: 'center', inline: 'center'});  // below the fold on a tall page
       const r = v.el.getBoundingClientRect(), b = v.frame.bbox;
       return {x: r.left + b.left + 0.5 * b.width, y: r.top + b.top + 0.5 * b.height}; }""")
     full = page.evaluate(TH_RANGE)

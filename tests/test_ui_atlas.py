@@ -83,6 +83,7 @@ MARK_XY = """() => {
   const i = Array.from(d.label).indexOf('PD');
   const f = Bokeh.documents[0].get_model_by_name('bifurcation');
   const v = Bokeh.index.find_one(f);
+  v.el.scrollIntoView({block: 'center', inline: 'center'});  // below the fold on a tall page
   const r = v.el.getBoundingClientRect();
   const b = v.frame.bbox;
   const sx = v.frame.x_scale.compute(d.x[i]), sy = v.frame.y_scale.compute(d.y[i]);

@@ -33,6 +33,7 @@ BY_NAME = """(name) => {
 FIG = """([name, x, y]) => {
   const m = (""" + BY_NAME + """)(name);
   const v = Bokeh.index.find_one(m);
+  v.el.scrollIntoView({block: 'center', inline: 'center'});  // below the fold on a tall page
   const r = v.el.getBoundingClientRect(), f = v.frame;
   const label = (side) => { const a = side.find(a => a.axis_label !== undefined); return a ? a.axis_label : null; };
   return {sx: r.left + f.x_scale.compute(x), sy: r.top + f.y_scale.compute(y),
