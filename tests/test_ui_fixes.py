@@ -77,6 +77,7 @@ def compute_map(page, nx: int, ny: int) -> None:
     page.locator(".map-status", has_text=f"{nx} × {ny} = {nx * ny} points").first.wait_for(timeout=180_000)
     page.wait_for_function(f"() => {{ const m = ({MAP_IMAGE})(); return m != null && m.shape[0] == {ny} "
                            f"&& m.shape[1] == {nx}; }}", timeout=60_000)
+    page.locator(".map-plot").first.scroll_into_view_if_needed()  # where a click reaches it
     painted(page)
 
 
