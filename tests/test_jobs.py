@@ -61,13 +61,15 @@ def test_a_job_past_its_time_limit_is_killed_and_others_still_run(pool):
     """One session's hung job is killed at its limit; another session's job finishes meanwhile."""
     hung, quick = Outcome(), Outcome()
     t0 = time.monotonic()
-    pool.submit(("a", "diagram"), time.sleep, (1000,), time_limit=3.0, **hung.kwargs())
+    pool.submit(("a", "diagram"), time.sleep, (1000,), time_limit=20.0, **hung.kwargs())
     pool.submit(("b", "diagram"), tasks.diagram, (RattleParams(lam=2.0), "lam", np.linspace(1, 2, 10), 50, 20),
                 {"use_cache": False}, **quick.kwargs())
     assert quick.done.wait(60) and quick.error is None
-    assert time.monotonic() - t0 < 3.0  # did not wait for the hung job
-    assert hung.done.wait(30) and "time limit" in hung.error
-    assert 3.0 <= time.monotonic() - t0 < 15.0
+    # the other session's job did not wait for the hung one: it finished while that still ran
+    # (an order of events; the limit is long enough for any load)
+    assert not hung.done.is_set()
+    assert hung.done.wait(90) and "time limit" in hung.error
+    assert time.monotonic() - t0 >= 20.0
     assert len(pool.worker_pids()) == 2
 
 
