@@ -17,6 +17,7 @@ How a session is built (``app.main.create_app`` → :class:`app.dashboard.Dashbo
         diagram.DiagramView            bifurcation diagram (HoloViews, background sweeps)
         continuation.ContinuationView  "Continue this orbit": the branch and its multipliers
         sound.SoundView                rattle sound card
+        sensitivity.SensitivityView    a twin trajectory and its separation from the first
         maps.MapsView                  Maps tab (background maps)
         gearbox.GearboxView            Gearbox tab: a measurement to a verdict (background)
     work/    jobs.JobPool and tasks.py: background work in killable worker processes, with

@@ -24,6 +24,7 @@ from .views.motion import MotionView
 from .views.noise import NoiseView
 from .work.threads import HV_LOCK
 from .session import Session
+from .views.sensitivity import SensitivityView
 from .views.sound import SoundView
 from .views.time_history import TimeHistoryView
 from .views.units import UnitsView
@@ -56,6 +57,7 @@ class Dashboard:
         self.diagram = DiagramView(state=s, jobs=jobs)
         self.continuation = ContinuationView(state=s, jobs=jobs)
         self.sound = SoundView(state=s)
+        self.sensitivity = SensitivityView(state=s)
         self.curve = CurveView(state=s, jobs=jobs)
         self.maps = MapsView(state=s, jobs=jobs)
         self.atlas = AtlasView(state=s, jobs=jobs, maps=self.maps)
@@ -63,15 +65,15 @@ class Dashboard:
         self.views = [self.controls, self.units, self.regime, self.noise, self.time_history,
                       self.section, self.motion,
                       self.diagram, self.continuation, self.curve, self.sound, self.maps,
-                      self.atlas, self.gearbox]
+                      self.atlas, self.gearbox, self.sensitivity]
         explorer = pn.Column(
             self.regime, self.noise,
-            pn.Row(self.time_history, self.units.table, sizing_mode="stretch_width"),
+            self.time_history, self.units.table,
             self.motion,
             pn.Row(self.section, pn.Column(self.diagram, self.continuation, self.curve,
                                            sizing_mode="stretch_width"),
                    sizing_mode="stretch_width"),
-            self.sound, sizing_mode="stretch_width")
+            self.sensitivity, self.sound, sizing_mode="stretch_width")
         maps_tab = pn.Column(self.maps, self.atlas, sizing_mode="stretch_width")
         self.tabs = pn.Tabs(("Explorer", explorer), ("Maps", maps_tab), ("Gearbox", self.gearbox),
                             dynamic=True,

@@ -10,6 +10,7 @@ one side is carried to the other:
   except ``state.solve_for`` (the engine speed by default).
 
 Orders ≥ 3 have no physical inputs: they keep their ratio ``h_k`` (the ``harmonics`` key).
+The physical φ₂ is held in the page's phase convention, as φ₂ is: one convention per screen.
 Values equal to rounding (relative 1e-12) are left as they are, so round trips do not creep
 in the last digit. Nothing here touches widgets; the session applies what :func:`link`
 returns.
@@ -27,7 +28,7 @@ from .state import PHYSICAL_KEYS, convert_phase, rattle_params
 #: Dimensionless values the physical side sets, and those whose change moves the physical side.
 DIMENSIONLESS_SET = ("lam", "j", "h2", "phi2")
 SOLVE_LABELS = {"rpm": "the engine speed", "drag_torque": "the drag torque C",
-                "inertia": "the idle-gear inertia J", "amplitude": "the order-1 amplitude"}
+                "inertia": "the idle-gear inertia J", "amplitude": "the harmonic-1 amplitude"}
 DIMENSIONLESS_MOVES = ("lam", "j", "h2", "phi2", "phases", "harmonics", "r", "v_stick", "units")
 
 
@@ -48,7 +49,8 @@ def physical_of(state: Any, params: RattleParams | None = None) -> PhysicalParam
     acc = state.excitation == "acceleration"
     a1 = state.amp1
     amps = [a1, state.amp2]
-    phases = [180.0 if acc else 0.0, state.phase2]
+    phase2 = state.phase2 if state.phases == "core" else convert_phase(state.phase2, 2)
+    phases = [180.0 if acc else 0.0, phase2]
     for k in range(3, params.n_harmonics + 1):
         h, phi = params.amplitudes[k - 1], params.phases_deg[k - 1]
         amps.append(h * k * k * a1 if acc else h * a1)
@@ -59,13 +61,14 @@ def physical_of(state: Any, params: RattleParams | None = None) -> PhysicalParam
                           excitation=state.excitation, r=params.r, v_stick=params.v_stick)
 
 
-def inputs_of(phys: PhysicalParams) -> dict[str, Any]:
-    """The state's physical inputs for a physical set."""
+def inputs_of(phys: PhysicalParams, phases: str = "core") -> dict[str, Any]:
+    """The state's physical inputs for a physical set (φ₂ in the convention ``phases``)."""
+    phase2 = phys.phases_deg[1] if len(phys.phases_deg) > 1 else 0.0
     return {"inertia": phys.inertia, "radius": phys.radius, "drag_torque": phys.drag_torque,
             "backlash_um": phys.backlash_um, "rpm": phys.rpm, "order": phys.order,
             "excitation": phys.excitation, "amp1": phys.amplitudes[0],
             "amp2": phys.amplitudes[1] if len(phys.amplitudes) > 1 else 0.0,
-            "phase2": phys.phases_deg[1] if len(phys.phases_deg) > 1 else 0.0}
+            "phase2": phase2 if phases == "core" else convert_phase(phase2, 2)}
 
 
 def _changed(state: Any, values: dict[str, Any]) -> dict[str, Any]:
@@ -119,7 +122,7 @@ def link(state: Any, names: set[str], physical_wins: bool = False) -> tuple[dict
         return {}, (f"Λ = {params.lam:.6g}, j = {params.j:.6g} cannot be reached by moving "
                     f"{SOLVE_LABELS[state.solve_for]}: {exc}. "
                     "The physical inputs keep their values.")
-    return _changed(state, inputs_of(new)), ""
+    return _changed(state, inputs_of(new, state.phases)), ""
 
 
 def run_physical(state: Any, params: RattleParams) -> PhysicalParams | None:
@@ -140,7 +143,7 @@ def excitation_values(state: Any, kind: str) -> dict[str, Any]:
     if kind == state.excitation:
         return {}
     phys = physical_of(state).as_excitation(kind)
-    values = {k: v for k, v in inputs_of(phys).items() if k in ("excitation", "amp1", "amp2", "phase2")}
+    values = {k: v for k, v in inputs_of(phys, state.phases).items() if k in ("excitation", "amp1", "amp2", "phase2")}
     if kind == "acceleration" and state.solve_for == "rpm":
         # with accelerations held, Λ = m R_d α₁ / F does not depend on engine speed
         values["solve_for"] = "amplitude"

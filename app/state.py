@@ -178,11 +178,12 @@ class ExplorerState(Said):
     excitation = param.Selector(default="displacement", objects=["displacement", "acceleration"],
                                 label="excitation")
     amp1 = param.Number(_EX.amplitudes[0], bounds=U.ALPHA_RANGE, inclusive_bounds=OPEN,
-                        label="order-1 amplitude", doc="θ₁ [rad] or α₁ [rad/s²]")
-    amp2 = param.Number(_EX.amplitudes[1], bounds=U.ALPHA_RANGE, label="order-2 amplitude",
+                        label="harmonic-1 amplitude", doc="θ₁ [rad] or α₁ [rad/s²]")
+    amp2 = param.Number(_EX.amplitudes[1], bounds=U.ALPHA_RANGE, label="harmonic-2 amplitude",
                         doc="θ₂ [rad] or α₂ [rad/s²]")
-    phase2 = param.Number(_EX.phases_deg[1], bounds=PHASE_RANGE_DEG, label="φ₂ (physical)",
-                          doc="order-2 phase [°], cos(2ωt − φ₂)")
+    phase2 = param.Number(convert_phase(_EX.phases_deg[1], 2), bounds=PHASE_RANGE_DEG,
+                          label="φ₂ (physical)",
+                          doc="harmonic-2 phase [°] in the page's convention (``phases``), like φ₂")
     solve_for = param.Selector(default="rpm", objects=list(U.SOLVE_FOR), label="a change of Λ moves")
     # ----- continuation ----------------------------------------------------------------------
     continuation = Flag(False, label="continued branch",
@@ -201,6 +202,14 @@ class ExplorerState(Said):
     curve_param2 = param.Selector(default="r", objects=["lam", "r", "j", "h2", "phi2"],
                                   label="second parameter",
                                   doc="the parameter the bifurcation's curve is traced in")
+    # ----- sensitivity: a twin trajectory ------------------------------------------------------
+    twin = Flag(False, label="twin trajectory",
+                doc="a second gear started next to the first; their separation against time")
+    nudge = param.Number(1e-6, bounds=(1e-12, 1.0), label="nudge",
+                         doc="how far the twin starts from the first gear, in x (H₁)")
+    twin_x0 = OptionalNumber(None, allow_None=True, bounds=(-1e6, 1e6), label="twin x₀",
+                             doc="the twin's clicked start (empty: the first gear's, nudged)")
+    twin_v0 = param.Number(0.0, bounds=(-1e6, 1e6), label="twin ẋ₀", doc="the twin's start velocity")
     # ----- computed, never in the URL ----------------------------------------------------------
     result = param.Parameter(None, precedence=-1, doc="the last good Run")
     branch = param.Parameter(None, precedence=-1, doc="the continued branch shown (app.branch.Branch)")
@@ -212,7 +221,7 @@ class ExplorerState(Said):
         self.param["phases"]._validate(convention)
         harm = {k: (h, convert_phase(p, k)) for k, (h, p) in parse_harmonics(self.harmonics).items()}
         self.param.update(phases=convention, phi2=convert_phase(self.phi2, 2),
-                          harmonics=format_harmonics(harm))
+                          phase2=convert_phase(self.phase2, 2), harmonics=format_harmonics(harm))
 
 
 #: Axes and fields a map can have (dimensionless, physical, or the start state for basins).

@@ -538,13 +538,22 @@ def test_ctrl_c_stops_a_long_sweep_at_once(tmp_path):
                              "--start", "3", "--stop", "3.5", "--num", "40", "--transient",
                              "2000000", "--record", "100", "--out", str(out), "--no-cache"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    import threading
+    chunks: list[str] = []
+    reader = threading.Thread(target=lambda: chunks.extend(iter(lambda: proc.stderr.read(1), "")),
+                              daemon=True)
+    reader.start()
     try:
-        time.sleep(6.0)  # imports, then well into the first chunk
-        assert proc.poll() is None, proc.communicate()
+        deadline = time.monotonic() + 120
+        while "sweep lam" not in "".join(chunks):  # the bar: the sweep has begun its chunks
+            assert proc.poll() is None and time.monotonic() < deadline, "".join(chunks)
+            time.sleep(0.05)
         sent = time.perf_counter()
         proc.send_signal(signal.SIGINT)
-        _, err = proc.communicate(timeout=60)
+        proc.wait(timeout=60)
         waited = time.perf_counter() - sent
+        reader.join(timeout=10)
+        err = "".join(chunks)
     finally:
         if proc.poll() is None:
             proc.kill()

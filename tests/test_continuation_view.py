@@ -40,7 +40,7 @@ def test_c_branch_on_the_diagram_is_two_pi_over_lambda_and_period_doubles_at_the
     b = continued(dash, **PRESETS["Fig 3C"][1])
     assert s.result.cls.regime == "C" and s.continuation and s.cont_from == 1.2
     ov = dash.diagram.branch[()].values()
-    stable, unstable, marks, labels = ov[0], ov[1], ov[-2], ov[-1]
+    stable, unstable, marks, labels = ov[0], ov[1], ov[-3], ov[-2:]
     xy = stable.array()
     xy = xy[np.isfinite(xy[:, 0])]
     first = b.impacts[b.impacts["branch"] == 0]
@@ -55,7 +55,7 @@ def test_c_branch_on_the_diagram_is_two_pi_over_lambda_and_period_doubles_at_the
     assert len(pd_marks) >= 1
     assert pd_marks["x"].to_numpy()[0] == pytest.approx(LAM_PD, abs=1e-6)
     assert pd_marks["y"].to_numpy()[0] == pytest.approx(2 * np.pi / LAM_PD, abs=1e-6)
-    assert "PD" in list(labels.dframe()["label"])
+    assert "PD" in {t.strip() for layer in labels for t in layer.dframe()["label"]}
     # going up from Λ = 1.2 the branch is stable until 1.2394, then unstable (μ crossed −1)
     up = b.points[(b.points["direction"] == "up") & (b.points["branch"] == 0)]
     assert up[up["x"] < LAM_PD - 1e-6]["stable"].all()

@@ -61,11 +61,20 @@ def installed(tmp_path_factory):
     # directory, but .pth files inside it are not run
     (purelib / "project-deps.pth").write_text("\n".join(_project_site_packages()) + "\n")
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME")}
-    build = subprocess.run([sys.executable, "-m", "pip", "--python", str(py), "install", "--quiet",
+    build = subprocess.run([sys.executable, "-m", "pip", "--python", str(py), "install",
                             "--no-deps", "--no-build-isolation", "--no-cache-dir", str(ROOT)],
                            capture_output=True, text=True, timeout=600, env=env, cwd=base)
     assert build.returncode == 0, build.stderr[-3000:]
-    return {"python": py, "bin": env_dir / "bin", "purelib": purelib, "cwd": base, "env": env}
+    return {"python": py, "bin": env_dir / "bin", "purelib": purelib, "cwd": base, "env": env,
+            "log": build.stdout + build.stderr}
+
+
+def test_the_build_warns_of_nothing(installed):
+    """Building the wheel prints no setuptools deprecation (license table, data folders missing
+    from the packages list): the configuration is the current one."""
+    log = installed["log"]
+    assert "Building wheel" in log or "Successfully installed" in log  # the build's output is here
+    assert "deprecated" not in log and "absent from the `packages`" not in log, log[-3000:]
 
 
 def _run(installed, argv, **kw):

@@ -222,3 +222,17 @@ def test_simulate_refuses_bools_and_text_for_numbers_and_numbers_for_switches(kw
     name = next(iter(kwargs))
     with pytest.raises(ValueError, match=name):
         simulate(RattleParams(lam=3.3), **{"periods": 5, **kwargs})
+
+
+def test_paper_takes_h2_and_phi2_as_the_cli_does():
+    """``RattleParams.paper(h2=, phi2=)`` is the paper's second harmonic: the same parameters as
+    the amplitudes/phases form; Fig 7's values (Λ = 3.3, 0.25, 45°) are chaotic, while the same
+    numbers read as core phases give a periodic orbit (the README's example)."""
+    from rattle_core import classify, simulate
+    fig7 = RattleParams.paper(lam=3.3, h2=0.25, phi2=45.0)
+    assert fig7 == RattleParams.paper(lam=3.3, amplitudes=(1.0, 0.25), phases_deg=(0.0, 45.0))
+    assert classify(simulate(fig7, periods=500, transient=200, lyapunov=True)).regime == "D"
+    core = RattleParams(lam=3.3, amplitudes=(1.0, 0.25), phases_deg=(0.0, 45.0))
+    assert classify(simulate(core, periods=500, transient=200, lyapunov=True)).period > 0
+    with pytest.raises(ValueError, match="h2"):
+        RattleParams.paper(lam=3.3, amplitudes=(1.0, 0.5), h2=0.25)

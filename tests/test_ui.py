@@ -21,6 +21,9 @@ READY = """() => {
   return m != null && m.get_length() > 0;
 }"""
 
+#: The deferred plots (section, diagram) are in the page: it has finished loading.
+LOADED = """() => ['section', 'bifurcation'].every(n => Bokeh.documents[0].get_model_by_name(n) != null)"""
+
 CHECKSUM = """() => {
   const x = Bokeh.documents[0].get_model_by_name('th_motion').get_column('x');
   let s = 0;
@@ -40,10 +43,17 @@ BIF_POINT = """(frac) => {
 
 
 def wait_bif(page, timeout: float = 120_000) -> None:
-    """Wait until the bifurcation diagram is drawn (its status counts the values swept)."""
+    """Wait until the bifurcation diagram is drawn (its status counts the values swept), and
+    bring it into view, where a click or the wheel reaches it."""
     page.locator(".bif-status").filter(has_text="swept").first.wait_for(timeout=timeout)
     page.wait_for_function("() => Bokeh.documents[0].get_model_by_name('bifurcation') != null",
                            timeout=timeout)
+    page.locator(".diagram").first.scroll_into_view_if_needed()
+
+
+def painted(page) -> None:
+    """Wait until the browser has painted what it last received (two animation frames)."""
+    page.evaluate("() => new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
 
 
 def open_dashboard(page, server, query: str = "") -> list[str]:
@@ -51,8 +61,10 @@ def open_dashboard(page, server, query: str = "") -> list[str]:
     errors: list[str] = []
     page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
     page.on("pageerror", lambda e: errors.append(str(e)))
-    page.goto(f"{server['url']}/{query}")
+    page.goto(f"{server['url']}/{query}", timeout=120_000)  # a loaded machine serves slowly
     page.wait_for_function(READY, timeout=60_000)
+    # the deferred plots load after the first one; a value typed before they are in is lost
+    page.wait_for_function(LOADED, timeout=60_000)
     return errors
 
 
@@ -97,7 +109,10 @@ def test_page_loads_without_console_errors(page, dashboard_server):
     assert box_value(page, "lam") == pytest.approx(3.3)
     assert box_value(page, "r") == pytest.approx(0.65)
     assert box_value(page, "j") == pytest.approx(8.0)
-    page.wait_for_timeout(1000)
+    wait_bif(page)  # every view drawn: the deferred plots load last
+    page.wait_for_function("() => Bokeh.documents[0].get_model_by_name('section') != null",
+                           timeout=60_000)
+    painted(page)
     assert errors == []
 
 
@@ -121,7 +136,7 @@ TH_RANGE = """() => { const m = Bokeh.documents[0].get_model_by_name('time_histo
 def test_time_history_zoom_survives_a_parameter_change(page, dashboard_server):
     """After the user zooms the time history, a Λ change redraws x(t) inside the same zoom."""
     open_dashboard(page, dashboard_server)
-    page.wait_for_timeout(500)
+    painted(page)
     m = page.evaluate("""() => { const v = Bokeh.index.find_one(
         Bokeh.documents[0].get_model_by_name('time_history'));
       v.el.scrollIntoView({block: 'center', inline: 'center'});  // below the fold on a tall page
@@ -131,16 +146,16 @@ def test_time_history_zoom_survives_a_parameter_change(page, dashboard_server):
     page.mouse.move(m["x"], m["y"])
     for _ in range(4):
         page.mouse.wheel(0, -300)
-        page.wait_for_timeout(100)
-    page.wait_for_timeout(500)
+    page.wait_for_function(f"() => {{ const r = ({TH_RANGE})(); return r[1] - r[0] < {0.8 * (full[1] - full[0])}; }}",
+                           timeout=20_000)
+    painted(page)
     zoomed = page.evaluate(TH_RANGE)
-    assert zoomed[1] - zoomed[0] < 0.8 * (full[1] - full[0])
     before = page.evaluate(CHECKSUM)
     b = box(page, "lam")
     b.fill("3.1")
     b.press("Enter")
     page.wait_for_function(f"() => Math.abs(({CHECKSUM})() - {before!r}) > 1e-6", timeout=20_000)
-    page.wait_for_timeout(500)
+    painted(page)  # a data range would re-fit itself on this paint
     assert page.evaluate(TH_RANGE) == pytest.approx(zoomed)
 
 
@@ -181,12 +196,7 @@ def test_zooming_the_bifurcation_diagram_refines_the_visible_region(page, dashbo
     page.mouse.move(target["x"], target["y"])
     for _ in range(6):
         page.mouse.wheel(0, -300)
-        page.wait_for_timeout(100)
-    for _ in range(600):
-        if "refined" in status.inner_text():
-            break
-        page.wait_for_timeout(200)
-    assert "refined" in status.inner_text()
+    page.locator(".bif-status div", has_text="refined").first.wait_for(timeout=120_000)
 
 
 def test_url_parameters_restore_the_view(page, dashboard_server):
@@ -251,7 +261,9 @@ def test_no_request_leaves_localhost(page, dashboard_server):
     open_dashboard(page, dashboard_server)
     page.locator(".preset-Fig7 button").first.click()
     wait_box(page, "lam", 3.3)
-    page.wait_for_timeout(1500)
+    page.locator(".rattle-badge[data-regime='D']").wait_for(timeout=30_000)  # Fig 7 drawn
+    wait_bif(page)
+    painted(page)
     hosts = {urlparse(u).hostname for u in urls if not u.startswith(("data:", "blob:"))}
     assert len(urls) > 5
     assert hosts <= {"localhost", "127.0.0.1"}, hosts
@@ -264,13 +276,15 @@ def test_three_sessions_keep_their_own_state(browser, dashboard_server):
         pages = [c.new_page() for c in contexts]
         for p in pages:
             open_dashboard(p, dashboard_server)
+        first = [p.evaluate(CHECKSUM) for p in pages]
         pages[0].locator(".preset-Fig8 button").first.click()
         b = box(pages[1], "lam")
         b.fill("2")
         b.press("Enter")
         wait_box(pages[0], "phi2", 90.0)
         wait_box(pages[1], "lam", 2.0)
-        pages[1].wait_for_timeout(1000)
+        for p, old in zip(pages[:2], first):  # both changed sessions redrew
+            p.wait_for_function(f"() => Math.abs(({CHECKSUM})() - {old!r}) > 1e-6", timeout=20_000)
         sums = [p.evaluate(CHECKSUM) for p in pages]
         assert box_value(pages[0], "lam") == pytest.approx(3.3)
         assert box_value(pages[1], "phi2") == pytest.approx(45.0)

@@ -19,8 +19,8 @@ import pytest
 from PIL import Image
 
 from app import dashboard as dashboard_module
-from conftest import free_port
-from test_ui import READY, box, box_value, message, open_dashboard, wait_bif, wait_box
+from conftest import free_port, wait_for
+from test_ui import READY, box, box_value, message, open_dashboard, painted, wait_bif, wait_box
 
 pytestmark = [pytest.mark.ui, pytest.mark.timeout(600)]
 
@@ -72,11 +72,12 @@ def compute_map(page, nx: int, ny: int) -> None:
     page.locator(".map-compute button").first.wait_for(timeout=20_000)
     for css, value in ((".map-x-num", str(nx)), (".map-y-num", str(ny)), (".map-transient", "60"),
                        (".map-record", "30")):
-        set_input(page, css, value)
-    page.wait_for_timeout(500)
+        set_input(page, css, value)  # sent before the click, on the same socket
     page.locator(".map-compute button").first.click()
     page.locator(".map-status", has_text=f"{nx} × {ny} = {nx * ny} points").first.wait_for(timeout=180_000)
-    page.wait_for_timeout(1000)
+    page.wait_for_function(f"() => {{ const m = ({MAP_IMAGE})(); return m != null && m.shape[0] == {ny} "
+                           f"&& m.shape[1] == {nx}; }}", timeout=60_000)
+    painted(page)
 
 
 def test_intensity_map_pixels_follow_its_colour_bar(page, dashboard_server):
@@ -85,13 +86,9 @@ def test_intensity_map_pixels_follow_its_colour_bar(page, dashboard_server):
     compute_map(page, 8, 6)
     select = page.locator(".ctl-field select").first
     log_map = f"() => {{ const m = ({MAP_IMAGE})(); return m != null && m.kind === 'LogColorMapper'; }}"
-    for label in ("rattle intensity Σ Ĩ² per period", "regime", "rattle intensity Σ Ĩ² per period"):
-        select.select_option(label=label)
-        page.wait_for_timeout(3000)
-        if page.evaluate(log_map):
-            break
+    select.select_option(label="rattle intensity Σ Ĩ² per period")
     page.wait_for_function(log_map, timeout=30_000)
-    page.wait_for_timeout(1500)
+    painted(page)
     m = page.evaluate(MAP_IMAGE)
     ny, nx = m["shape"]
     values = np.array(m["values"], dtype=float).reshape(ny, nx)
@@ -143,7 +140,8 @@ def test_paper_45_degrees_gives_chaos_and_the_convention_is_in_the_url(page, das
     wait_box(page, "phi2", 45.0)
     page.locator(".ctl-bif button", has_text="φ₂").first.click()
     page.locator(".bif-status", has_text="φ₂ swept").first.wait_for(timeout=180_000)
-    page.wait_for_timeout(1000)
+    page.wait_for_function(f"() => ({FIG})(['bifurcation', 0, 0]).xlabel.includes('φ₂')", timeout=60_000)
+    painted(page)
     f = fig(page, "bifurcation")
     assert (f["x0"], f["x1"]) == (pytest.approx(0.0, abs=1e-6), pytest.approx(360.0, abs=1e-6))
     assert "paper" in f["xlabel"] and "Figure 6" in f["xlabel"]
@@ -165,7 +163,9 @@ def test_diagram_at_lambda_06_keeps_the_marker_on_a_full_range(page, dashboard_s
     open_dashboard(page, dashboard_server, "?lam=0.6&r=0.6")
     page.locator(".bif-status", has_text="400 values of Λ swept").first.wait_for(timeout=180_000)
     wait_bif(page)
-    page.wait_for_timeout(1000)
+    page.wait_for_function("() => Bokeh.documents[0].get_model_by_name('current_value') != null",
+                           timeout=60_000)
+    painted(page)
     f = fig(page, "bifurcation")
     assert f["x0"] == pytest.approx(0.5, abs=0.02) and f["x1"] == pytest.approx(4.0, abs=0.02)
     text = page.locator(".bif-status div").first.inner_text()
@@ -200,7 +200,8 @@ def test_sidebar_and_maps_controls_are_neither_clipped_nor_overlapping(page, das
     the Maps tab's boxes are whole."""
     open_dashboard(page, dashboard_server, "?units=1")
     page.locator(".ctl-rpm input").first.wait_for(state="visible", timeout=20_000)
-    page.wait_for_timeout(1000)
+    page.evaluate("() => document.fonts.ready.then(() => true)")  # labels measured in their font
+    painted(page)
     side = page.locator("#sidebar").first.bounding_box()
     inputs = _boxes(page, "#sidebar input.bk-input") + _boxes(page, "#sidebar button.bk-btn")
     labels = _boxes(page, "#sidebar div[style*='font-size:13px']")
@@ -255,8 +256,7 @@ def test_details_a_new_user_met(page, dashboard_server):
 
 def test_a_slider_drag_runs_once(page, dashboard_server):
     """Fix 9: dragging the Λ slider through many positions runs one simulation, on release."""
-    open_dashboard(page, dashboard_server)
-    page.wait_for_timeout(1000)
+    open_dashboard(page, dashboard_server)  # the session has run its first simulation
     dash = max(dashboard_module.LIVE, key=lambda d: d.session.key)
     runs = dash.session.runs
     h = page.locator(".ctl-lam .noUi-handle").first.bounding_box()
@@ -265,11 +265,15 @@ def test_a_slider_drag_runs_once(page, dashboard_server):
     page.mouse.down()
     for k in range(1, 13):
         page.mouse.move(x + 6 * k, y, steps=2)
-        page.wait_for_timeout(60)
+        page.wait_for_timeout(60)  # a hand's drag lasts: each position has time to be sent
     page.mouse.up()
-    page.wait_for_function("() => !window.location.search.includes('lam=3.3&') ", timeout=20_000)
-    page.wait_for_timeout(1500)
-    assert box_value(page, "lam") > 3.3
+    page.wait_for_function("(el) => parseFloat(el.value) > 3.3", arg=box(page, "lam").element_handle(),
+                           timeout=20_000)
+    lam = box_value(page, "lam")
+    wait_for(lambda: dash.state.result is not None and abs(dash.state.result.params.lam - lam) < 1e-12,
+             timeout=30, what="the run at the released value")
+    page.wait_for_function(f"() => Math.abs(parseFloat(new URLSearchParams(window.location.search)"
+                           f".get('lam')) - {lam}) < 1e-12", timeout=20_000)
     assert dash.session.runs == runs + 1
 
 

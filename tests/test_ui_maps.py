@@ -42,8 +42,7 @@ def test_maps_tab_computes_a_small_map(page, dashboard_server):
     page.locator(".map-compute button").first.wait_for(timeout=20_000)
     for css, value in ((".map-x-num", "12"), (".map-y-num", "12"), (".map-transient", "40"),
                        (".map-record", "20")):
-        set_input(page, css, value)
-    page.wait_for_timeout(500)
+        set_input(page, css, value)  # sent before the click, on the same socket
     page.locator(".map-compute button").first.click()
     page.wait_for_function(MAP_READY, timeout=120_000)
     shape = page.evaluate(MAP_SHAPE)

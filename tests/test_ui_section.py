@@ -68,6 +68,7 @@ def test_reset_returns_to_the_current_runs_frame(page, dashboard_server):
     b.press("Enter")
     x, y = paper(2.5, 0.0)
     framed = wait_framed(page, x, y)
+    page.locator(".section").first.scroll_into_view_if_needed()
     c = fig(page, "section", 0.5 * (framed[0] + framed[1]), 0.5 * (framed[2] + framed[3]))
     page.mouse.move(c["sx"], c["sy"])
     page.mouse.wheel(0, -400)
@@ -89,6 +90,7 @@ def test_a_click_between_the_teeth_starts_the_gear_there(page, dashboard_server)
     open_dashboard(page, dashboard_server, "?lam=2.5&h2=0")
     x, y = paper(2.5, 0.0)
     r = wait_framed(page, x, y)
+    page.locator(".section").first.scroll_into_view_if_needed()
     gx, gy = r[0] + 0.3 * (r[1] - r[0]), r[2] + 0.7 * (r[3] - r[2])
     assert 0.0 < gx < 8.0  # between the teeth: y(0) = 0 and y(0) + j = 8
     p = fig(page, "section", gx, gy)
@@ -98,3 +100,16 @@ def test_a_click_between_the_teeth_starts_the_gear_there(page, dashboard_server)
     assert float(q["x0"][0]) == pytest.approx(gx, abs=0.02 * (r[1] - r[0]))
     assert float(q["v0"][0]) == pytest.approx(gy, abs=0.02 * (r[3] - r[2]))
     wait_box(page, "x0", float(q["x0"][0]), tol=1e-6)
+
+
+def test_a_twin_started_next_to_the_first_gear_drifts_away_on_chaos(page, dashboard_server):
+    """Fig 7 with the twin on (from the link): the page draws the separation, which grows from
+    the 1e-6 nudge by more than a thousandfold."""
+    open_dashboard(page, dashboard_server, "?lam=3.3&h2=0.25&phi2=45&periods=5000&twin=1")
+    gap = """() => { const r = Bokeh.documents[0].get_model_by_name('twin_gap');
+      if (r == null) return null; const y = r.data_source.data.separation || r.data_source.data.y;
+      return y == null ? null : Array.from(y); }"""
+    page.wait_for_function(f"() => {{ const y = ({gap})(); return y != null && y.length > 100; }}",
+                           timeout=60_000)
+    y = np.array(page.evaluate(gap))
+    assert y[0] == pytest.approx(1e-6, rel=1e-6) and np.median(y[-100:]) > 1e3 * y[0]

@@ -13,7 +13,7 @@ import pytest
 from scipy.io import wavfile
 
 from rattle_core.analysis.sound import DEFAULT_EXCITATION_HZ, DEFAULT_TAIL, PEAK
-from test_ui import box, open_dashboard, wait_box
+from test_ui import box, open_dashboard, painted, wait_box
 
 pytestmark = [pytest.mark.ui, pytest.mark.timeout(300)]
 
@@ -89,6 +89,6 @@ def test_render_after_a_parameter_change_replaces_the_sound(page, dashboard_serv
     rate, data = audio_wav(page)
     assert rate == 44_100 and data.size == round((50 / DEFAULT_EXCITATION_HZ + DEFAULT_TAIL) * rate)
     wait_text(page, ".sound-status p", stale=False)
-    page.wait_for_timeout(1000)
+    painted(page)
     assert errors == []
     assert dashboard_server["log"].tracebacks() == []

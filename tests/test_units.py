@@ -270,3 +270,21 @@ def test_as_excitation_changes_the_description_not_the_model():
     assert phys.as_excitation("displacement") is phys
     with pytest.raises(ValueError, match="excitation"):
         phys.as_excitation("velocity")
+
+
+def test_physical_table_names_engine_orders_and_speaks_one_phase_convention():
+    """The table names the fundamental's harmonics by engine order (k × order) and gives every
+    phase, physical and dimensionless, in the convention asked for: the paper's is the map of
+    rattle_core.model.phases applied to the core's, and the same on both sides."""
+    from rattle_core.analysis.vocabulary import physical_table
+    from rattle_core.model.phases import core_to_paper
+    phys = example()
+    core = {r[0]: r for r in physical_table(phys)}
+    paper = {r[0]: r for r in physical_table(phys, phases="paper")}
+    want = float(core_to_paper(phys.phases_deg[1], 2))
+    row = paper[f"engine order {2 * phys.order:g} (θ_2, phase paper)"]
+    assert row[1].endswith(f", {want:.6g}°") and row[2].endswith(f"φ_2 = {want:.6g}°")
+    assert core[f"engine order {2 * phys.order:g} (θ_2, phase core)"][1].endswith(f", {phys.phases_deg[1]:.6g}°")
+    assert f"θ₁ (engine order {phys.order:g})" in core
+    with pytest.raises(ValueError, match="phases"):
+        physical_table(phys, phases="sine")

@@ -124,16 +124,19 @@ def badge_html(cls: Any) -> str:
             f'{b["detail"]}</span></span></div>')
 
 
-def table_html(rows: list[tuple[str, ...]], css: str, head: tuple[str, ...] | None = None) -> str:
-    """Rows of plain text as an HTML table (every cell escaped; the last columns bold)."""
+def table_html(rows: list[tuple[str, ...]], css: str, head: tuple[str, ...] | None = None,
+               nowrap: bool = False) -> str:
+    """Rows of plain text as an HTML table (every cell escaped; the last columns bold; with
+    ``nowrap``, each cell on one line)."""
     e = html.escape
+    td = "padding-right:12px" + (";white-space:nowrap" if nowrap else "")
     out = [f'<table class="{e(css)}" style="font-size:13px;border-collapse:collapse">']
     if head:
-        out.append("<tr>" + "".join(f"<th style='text-align:left;padding-right:12px'>{e(h)}</th>"
+        out.append("<tr>" + "".join(f"<th style='text-align:left;{td}'>{e(h)}</th>"
                                     for h in head) + "</tr>")
     for row in rows:
-        cells = [f"<td style='padding-right:12px'>{e(row[0])}</td>"]
-        cells += [f"<td style='padding-right:12px'><b>{e(c)}</b></td>" for c in row[1:]]
+        cells = [f"<td style='{td}'>{e(row[0])}</td>"]
+        cells += [f"<td style='{td}'><b>{e(c)}</b></td>" for c in row[1:]]
         out.append("<tr>" + "".join(cells) + "</tr>")
     out.append("</table>")
     return "".join(out)
@@ -251,3 +254,34 @@ def map_key(r: Any, field: str) -> list[tuple[str, str]]:
         return []
     reg = np.asarray(r.fields["regime"])
     return [(f"{k} {REGIME_SHORT[k]}", REGIME_COLOR[k]) for k, c in REGIME_CODES.items() if (reg == c).any()]
+
+
+def not_periodic_text(cls: Any) -> str:
+    """Why "Continue this orbit" is off for a run that is not periodic (HTML, no user text)."""
+    letter = getattr(cls, "regime", "")
+    what = f"regime {letter}, {REGIME_MEANING.get(letter, 'not periodic')}" if letter else "not periodic"
+    return (f"<div style='font-size:12px;color:#555'>Continuation follows a periodic orbit; this run "
+            f"is {html.escape(what)}. Move to a periodic value (C, E or P on the diagram's regimes) "
+            f"to continue from there.</div>")
+
+
+def twin_text(data: Any) -> str:
+    """What the twin trajectory shows, in words (HTML, numbers only: no user text)."""
+    if data is None:
+        return ""
+    gap = data["distance"]
+    start, end = float(gap[0]), float(np.median(gap[-len(gap) // 8:]))
+    lam = data["lyapunov"]
+    if end > 1e3 * start:
+        what = (f"The twin started {start:.1e} away and is now {end:.2g} away: the gap grew "
+                f"{end / start:.1e}-fold. Chaos: a tiny difference in the start decides the "
+                "rattle, so only statistics of it can be predicted.")
+    elif end < 1e-2 * start:
+        what = (f"The twin started {start:.1e} away and is now {end:.1e} away: both gears fall "
+                "onto the same periodic orbit, which attracts its neighbours.")
+    else:
+        what = (f"The twin started {start:.1e} away and is now {end:.2g} away: neither clearly "
+                "apart nor together over this time.")
+    if math.isfinite(lam):
+        what += f" The run's Lyapunov exponent is λ = {lam:+.3g} per unit time (ω t)."
+    return f"<div style='font-size:13px'>{html.escape(what)}</div>"

@@ -72,10 +72,19 @@ def name_saved_png(fig: Any, stem: str) -> None:
             tool.filename = name
 
 
+def full_screen(fig: Any) -> None:
+    """Give ``fig`` a full-screen button (a projector shows one plot large)."""
+    from bokeh.models import FullscreenTool
+    if not any(isinstance(t, FullscreenTool) for t in fig.toolbar.tools):
+        fig.add_tools(FullscreenTool())
+
+
 def save_as(get_stem: Callable[[], str]) -> Callable:
-    """A HoloViews hook naming the plot's saved PNG ``get_stem()`` (see :func:`name_saved_png`)."""
+    """A HoloViews hook naming the plot's saved PNG ``get_stem()`` (see :func:`name_saved_png`)
+    and offering it full screen."""
     def hook(plot, element) -> None:
         name_saved_png(plot.state, get_stem())
+        full_screen(plot.state)
     return hook
 
 
@@ -99,6 +108,15 @@ def key_legend(fig: Any, entries: list[tuple[str, str]], name: str = "key") -> N
                         spacing=1, padding=4, margin=4, border_line_alpha=0.3)
         fig.add_layout(legend, "right")
     legend.update(items=items, tags=[tag], visible=bool(entries))
+
+
+def named_glyph(glyph: str) -> Callable:
+    """A HoloViews hook naming the Bokeh glyph renderer (the page's tests find it by name)."""
+    def hook(plot: Any, element: Any) -> None:
+        renderer = plot.handles.get("glyph_renderer")
+        if renderer is not None:
+            renderer.name = glyph
+    return hook
 
 
 class HoloViewsPane(pn.pane.HoloViews):

@@ -11,6 +11,7 @@ by a refused value. Sliders act on ``value_throttled`` (on release), not on ever
 from __future__ import annotations
 
 import logging
+import math
 from typing import Any
 
 import panel as pn
@@ -58,6 +59,14 @@ def deferred(obj: Any) -> Any:
     """``obj`` rendered only once the page has loaded (a spinner until then)."""
     return pn.param.ParamFunction(lambda: obj, defer_load=True, sizing_mode="stretch_width",
                                   min_height=380)
+
+
+def shortened(v: Any) -> Any:
+    """A float as a box shows it: nine significant digits, so a derived value (an engine speed
+    from Λ) reads like a typed one and every box fits the same digits; others unchanged."""
+    if isinstance(v, float) and math.isfinite(v):
+        return float(f"{v:.9g}")
+    return v
 
 
 class Field(pn.viewable.Viewer):
@@ -123,8 +132,9 @@ class Field(pn.viewable.Viewer):
         v = getattr(self.state, self.name_)
         self._syncing = True
         try:
-            if self.box.value != v:
-                self.box.value = v
+            shown = shortened(v)
+            if self.box.value != shown:
+                self.box.value = shown
             if self.slider is not None and v is not None:
                 lo, hi = self._p.softbounds
                 want = {"start": min(lo, v), "end": max(hi, v), "value": v}

@@ -31,7 +31,8 @@ from ..work.branch import (FIND_TRANSIENT, MAX_SWITCHED, Branch, from_job, conti
 from ..core import paper_phi2_to_core
 from ..work.diagram_data import current_value, diagram_key, full_range
 from ..state import ExplorerState
-from ..ui.plots import HoloViewsPane
+from ..ui.plots import HoloViewsPane, named_glyph
+from ..ui.labels import not_periodic_text
 from ..ui.widgets import message
 
 BRANCH_COLOR = "#6c3483"
@@ -54,13 +55,7 @@ def core_bounds(name: str, phases: str, lo: float, hi: float) -> tuple[float, fl
     return float(lo), float(hi)
 
 
-def _named(glyph: str):
-    """A HoloViews hook naming the Bokeh glyph renderer (the page's tests find it by name)."""
-    def hook(plot: Any, element: Any) -> None:
-        renderer = plot.handles.get("glyph_renderer")
-        if renderer is not None:
-            renderer.name = glyph
-    return hook
+_named = named_glyph
 
 
 def _legend_entry(number: int, label: str):
@@ -107,10 +102,15 @@ def joined(segments: list[np.ndarray]) -> np.ndarray:
     return np.concatenate([part for seg in segments for part in (seg, gap)][:-1])
 
 
-def branch_overlay(branch: Branch | None, name: str) -> hv.Overlay:
+def branch_overlay(branch: Branch | None, name: str,
+                   limits: tuple[tuple[float, float], tuple[float, float]] | None = None) -> hv.Overlay:
     """The branches on the diagram: stable solid, unstable dashed, one colour and one legend
     entry per branch, bifurcations marked and labelled (empty, unlabelled elements where there
-    is no branch for diagram ``name``)."""
+    is no branch for diagram ``name``).
+
+    Each bifurcation is labelled once, inside ``limits`` (the view's ranges): near the right
+    edge to its left, and close neighbours a row apart, so labels neither clip nor overlap.
+    """
     kdims = [hv.Dimension("x"), hv.Dimension("y")]
     ok = branch is not None and branch.name == name
     held = branch.numbers if ok else []
@@ -130,14 +130,45 @@ def branch_overlay(branch: Branch | None, name: str) -> hv.Overlay:
     marks = branch.marks[["x", "y", "label", "message"]].reset_index(drop=True) if ok else None
     if marks is None or not len(marks):  # one blank row: Bokeh cannot draw empty text columns
         marks = pd.DataFrame({"x": [np.nan], "y": [np.nan], "label": [""], "message": [""]})
+    left, right = mark_labels(branch.marks if ok else None, limits)
+    text = {"text_font_size": "9pt", "text_color": "black", "text_baseline": "bottom"}
     return hv.Overlay([
         *lines,
         hv.Points(marks, kdims, ["label", "message"]).opts(
             color="black", fill_color="white", size=9, marker="diamond", line_width=1.5,
             tools=["hover"], hooks=[_named("cont-marks")]),
-        hv.Labels(marks, kdims, ["label"]).opts(
-            text_font_size="9pt", text_color="black", xoffset=0, yoffset=0,
-            text_align="left", text_baseline="bottom")])
+        hv.Labels(left, kdims, ["label"]).opts(text_align="left", hooks=[_named("cont-labels")], **text),
+        hv.Labels(right, kdims, ["label"]).opts(text_align="right", hooks=[_named("cont-labels-r")],
+                                                **text)])
+
+
+def mark_labels(marks: Any, limits: Any) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Where the bifurcation labels go: ``(left-aligned, right-aligned)`` frames of x, y, label.
+
+    One label per bifurcation (at its highest impulse); a label whose neighbour on the left is
+    closer than a label's width moves up a row, and labels in the right quarter of the view
+    read leftwards, so none runs out of the plot.
+    """
+    blank = pd.DataFrame({"x": [np.nan], "y": [np.nan], "label": [""]})
+    if marks is None or not len(marks):
+        return blank, blank.copy()
+    one = (marks.sort_values("y").drop_duplicates(["kind", "x"], keep="last")
+           .sort_values("x").reset_index(drop=True))
+    if limits is None:
+        (x0, x1), (y0, y1) = (one["x"].min(), one["x"].max()), (one["y"].min(), one["y"].max())
+    else:
+        (x0, x1), (y0, y1) = limits
+    dx, dy = max(x1 - x0, 1e-300), max(y1 - y0, 1e-300)
+    rows: list[tuple[float, float, str, bool]] = []
+    last_x, level = -np.inf, 0
+    for x, y, label in zip(one["x"], one["y"], one["label"]):
+        level = level + 1 if x - last_x < 0.08 * dx else 0
+        last_x = x
+        yl = min(y + 0.015 * dy + level * 0.06 * dy, y1 - 0.04 * dy)
+        rows.append((float(x), float(yl), f" {label} ", x > x0 + 0.75 * dx))
+    frame = pd.DataFrame(rows, columns=["x", "y", "label", "right"])
+    out = [frame[frame["right"] == side][["x", "y", "label"]] for side in (False, True)]
+    return tuple(f if len(f) else blank.copy() for f in out)  # type: ignore[return-value]
 
 
 def multipliers_element(branch: Branch | None, value: float) -> hv.Overlay:
@@ -183,6 +214,8 @@ class ContinuationView(pn.viewable.Viewer):
                                                css_classes=["cont-progress"])
         self.status = pn.pane.HTML("", css_classes=["cont-status"], margin=(0, 10),
                                    sizing_mode="stretch_width")
+        self.why = pn.pane.HTML("", css_classes=["cont-why"], margin=(0, 10),
+                                sizing_mode="stretch_width")
         # redrawn when the nearest branch point changes, not on every run: a slider move
         # without a branch costs the multipliers plot nothing
         self.multipliers = hv.DynamicMap(self._multipliers, streams=[
@@ -195,10 +228,12 @@ class ContinuationView(pn.viewable.Viewer):
         self._update()
 
     def __panel__(self):
+        # the buttons wrap in a narrow column instead of running over the multipliers' plot
+        buttons = pn.FlexBox(self.button, self.cancel_button, self.clear_button, flex_wrap="wrap",
+                             sizing_mode="stretch_width")
         return pn.Row(
-            pn.Column(pn.Row(self.button, self.cancel_button, self.clear_button),
-                      message(self.state, "continuation"), self.progress, self.status,
-                      sizing_mode="stretch_width"),
+            pn.Column(buttons, self.why, message(self.state, "continuation"), self.progress,
+                      self.status, sizing_mode="stretch_width", min_width=200),
             self.pane, sizing_mode="stretch_width", css_classes=["continuation"])
 
     # ----- what to compute ----------------------------------------------------------------------
@@ -227,6 +262,9 @@ class ContinuationView(pn.viewable.Viewer):
         s, run = self.state, self.state.result
         computing = self._job is not None
         self.button.disabled = computing or run is None or not is_periodic(run.cls)
+        why = "" if run is None or is_periodic(run.cls) else not_periodic_text(run.cls)
+        if self.why.object != why:
+            self.why.object = why
         self.clear_button.visible = bool(s.continuation)
         if run is None:
             return

@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 import panel as pn
 import param
-from bokeh.models import Span
+from bokeh.models import Span, WheelZoomTool
 from holoviews.operation.datashader import datashade, dynspread
 
 from ..work import tasks
@@ -164,7 +164,7 @@ class DiagramView(pn.viewable.Viewer):
         if key != self._key:
             return
         self.progress.visible = False
-        new = from_work(req, out, "computed (disk cache)")
+        new = from_work(req, out, "read from the disk cache" if out.get("from_cache") else "computed")
         self._set(self.diagram.merge(new) if merge and self.diagram is not None else new)
 
     def _error(self, key: tuple, msg: str) -> None:
@@ -246,19 +246,20 @@ class DiagramView(pn.viewable.Viewer):
         name = self._name
         kdims = [hv.Dimension("x"), hv.Dimension("y")]
         m = marks(name, result, self.diagram) if result is not None else {"onset": None, "chaos": None}
-        span = ylim[1] - ylim[0]
         lines, labels = [], []
-        for key, color, text, y in (("onset", ONSET_COLOR, "rattle starts (Λ_c)", ylim[1] - 0.04 * span),
-                                    ("chaos", CHAOS_COLOR, "first chaos", ylim[1] - 0.12 * span)):
-            x = m[key]
+        for key, color, row in (("onset", ONSET_COLOR, 0.04), ("chaos", CHAOS_COLOR, 0.12)):
+            x, shown = m[key], []
             if x is not None and (overlays or key == "chaos"):
                 lines.append((x, ylim[0], x, ylim[1], color))
-                labels.append((x, y, f" {text}: {num(x, 4)}", color))
-        # the marks are segments and labels (one glyph each), so a redraw stays cheap
+                shown = [mark_label(key, name, x, xlim, ylim[1] - row * (ylim[1] - ylim[0]))]
+            # one label layer per mark, each in its own colour, always there: the overlay keeps
+            # its structure, and no colour column is looked for in an empty label set
+            align = shown[0][3] if shown else "left"
+            labels.append(hv.Labels([r[:3] for r in shown], kdims, ["text"]).opts(
+                text_color=color, text_align=align, text_font_size="9pt", text_baseline="middle"))
         segs = hv.Segments(lines, kdims + ["x1", "y1"], ["color"]).opts(
             color="color", line_width=2, line_dash="dashed")
-        text = hv.Labels(labels, kdims, ["text", "color"]).opts(
-            text_color="color", text_align="left", text_font_size="9pt")
+        text = labels[0] * labels[1]
         curves = one_sided(name, result, *xlim) if (overlays and result is not None) else []
         paths = hv.Path(curves or [np.empty((0, 2))], kdims).opts(
             color="#27ae60", line_width=1.5, line_dash="dotted")
@@ -266,7 +267,7 @@ class DiagramView(pn.viewable.Viewer):
 
     def _branch(self, branch: Any = None, marks_revision: int = 0) -> hv.Overlay:
         """The continued branch (``state.branch``), drawn by :mod:`app.views.continuation`."""
-        return self.zoom.apply(branch_overlay(branch, self._name), *self._limits())
+        return self.zoom.apply(branch_overlay(branch, self._name, self._limits()), *self._limits())
 
     def _name_plot(self, plot: Any, element: Any) -> None:
         """Title (the parameters, so a saved PNG carries them) and the save tool's file name."""
@@ -279,6 +280,9 @@ class DiagramView(pn.viewable.Viewer):
         if plot.state.title.text != self._title:
             plot.state.title.text = self._title
             plot.state.title.text_font_size = "9pt"
+        for tool in plot.state.toolbar.tools:
+            if isinstance(tool, WheelZoomTool) and tool.dimensions != "width":
+                tool.dimensions = "width"  # the swept axis only: a zoom in impulse soon shows nothing
         save_as(lambda: self._stem)(plot, element)
 
     def _redraw(self) -> None:
@@ -345,3 +349,25 @@ class DiagramView(pn.viewable.Viewer):
 def _text(text: str) -> str:
     import html
     return f'<div style="font-size:12px;color:#444">{html.escape(text)}</div>'
+
+
+def mark_label(key: str, name: str, x: float, xlim: tuple[float, float],
+               y: float) -> tuple[float, float, str, str]:
+    """``(x, y, text, align)`` of the label of a diagram mark at ``x``, inside the view.
+
+    The text names the value in the axis's own unit; a mark near the right edge is labelled to
+    its left, and a mark left of the view is labelled at the left edge, pointing to it.
+    """
+    what = "rattle starts" if key == "onset" else "first chaos"
+    value = {"lam": f"Λ = {num(x, 4)}", "rpm": f"{num(x, 5)} rpm",
+             "phi2": f"φ₂ = {num(x, 4)}°"}[name]
+    if key == "onset" and name == "lam":
+        value = f"Λ_c = {num(x, 4)}"
+    lo, hi = xlim
+    if x < lo:
+        return lo, y, f" ← {what} ({value})", "left"
+    if x > hi:
+        return hi, y, f"{what} ({value}) → ", "right"
+    if x > lo + 0.6 * (hi - lo):
+        return x, y, f"{what} ({value}) ", "right"
+    return x, y, f" {what} ({value})", "left"

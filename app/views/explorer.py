@@ -163,7 +163,8 @@ class SectionView(pn.viewable.Viewer):
 
 
 def start_from_section(state: ExplorerState, x: float, y: float) -> bool:
-    """Start the gear at a clicked section point: (x₀, ẋ₀) at t₀ = the strobe phase."""
+    """Start the gear at a clicked section point: (x₀, ẋ₀) at t₀ = the strobe phase; with the
+    twin trajectory on and a start already clicked, the twin's start."""
     run = state.result
     if run is None:
         return False
@@ -182,6 +183,10 @@ def start_from_section(state: ExplorerState, x: float, y: float) -> bool:
                            f"at t₀ = {t0:.4g}: click between the teeth.")
         return False
     state.clear("start")
+    if state.twin and state.x0 is not None and abs(state.t0 - round(t0, 12)) < 1e-9:
+        # a second click, with the twin on: the twin starts there, beside the first gear
+        state.param.update(twin_x0=round(x0, 10), twin_v0=round(v0, 10))
+        return True
     state.param.update(x0=round(x0, 10), v0=round(v0, 10), t0=round(t0, 12))
     return True
 

@@ -29,7 +29,7 @@ from bokeh.plotting import figure
 from ..state import ExplorerState
 from ..ui.labels import (ACTIVE_COLOR, GEAR_COLOR, MARK_COLOR, REVERSE_COLOR, STICK_COLOR,
                          TOOTH_COLOR)
-from ..ui.plots import caption, file_stem, name_saved_png, time_history_data
+from ..ui.plots import caption, file_stem, full_screen, name_saved_png, time_history_data
 
 MOTION = ("t", "x", "y", "yj", "tooth_lo", "tooth_hi")
 IMPACTS = ("t", "x", "impulse")
@@ -45,6 +45,7 @@ def time_history_figure() -> tuple[Any, dict[str, ColumnDataSource]]:
                active_scroll="wheel_zoom", x_range=DataRange1d(), y_range=DataRange1d(),
                output_backend="canvas", name="time_history")
     p.add_tools(SaveTool(filename="rattle_time.png"))
+    full_screen(p)
     p.title.text_font_size = "10pt"
     m = src["motion"]
     teeth_a = p.varea(x="t", y1="tooth_lo", y2="y", source=m, fill_color=TOOTH_COLOR, fill_alpha=0.55)

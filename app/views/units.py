@@ -3,7 +3,7 @@
 A ``pn.viewable.Viewer`` over the state. The sidebar card holds the switch and, while it is
 on, the idle gear's inertia, base radius and drag torque, the backlash (µm, or degrees of the
 idle gear), the engine speed and order, the driving gear's excitation (displacement or
-acceleration amplitudes and the order-2 phase) and which quantity absorbs a change of Λ.
+acceleration amplitudes and the harmonic-2 phase) and which quantity absorbs a change of Λ.
 Each input writes one state parameter; :mod:`app.physical` and the session carry it to
 Λ, j, h₂, φ₂. The table shows both descriptions side by side; it sits beside the plots.
 """
@@ -89,7 +89,7 @@ class UnitsView(pn.viewable.Viewer):
             "rpm": Field(s, "rpm", "engine speed [rpm]"),
             "order": Field(s, "order", "engine order of the fundamental (2: four-cylinder four-stroke)"),
             "amp1": Field(s, "amp1", ""), "amp2": Field(s, "amp2", ""),
-            "phase2": Field(s, "phase2", "φ₂ · order-2 phase [°], cos(2ωt − φ₂)"),
+            "phase2": Field(s, "phase2", ""),
         }
         self.backlash = BacklashField(s)
         self.backlash_unit = Choice(s, "backlash_unit", BACKLASH_OPTIONS, sizing_mode="stretch_width",
@@ -101,12 +101,13 @@ class UnitsView(pn.viewable.Viewer):
         self.solve_for = Choice(s, "solve_for", SOLVE_OPTIONS, select=True, label="",
                                 sizing_mode="stretch_width")
         note = {"margin": (6, 10, 0, 10)}
+        self.heading = _bold("", **note)
         self.body = pn.Column(
             _bold("Idle gear", **note), self.fields["inertia"], self.fields["radius"],
             self.fields["drag_torque"],
             _bold("Backlash", **note), self.backlash_unit, self.backlash,
             _bold("Engine", **note), self.fields["rpm"], self.fields["order"],
-            _bold("Driving-gear excitation Σ a_k cos(k ω t − φ_k); order 1 sets the time origin", **note),
+            self.heading,
             self.excitation, message(s, "excitation"), self.fields["amp1"], self.fields["amp2"],
             self.fields["phase2"],
             _bold("Orders ≥ 3 (Advanced) keep their ratio H_k/H₁. A change of Λ (slider, preset, "
@@ -119,10 +120,12 @@ class UnitsView(pn.viewable.Viewer):
                    sizing_mode="stretch_width"),
             message(s, "units"), self.body, title="Physical units", collapsed=False,
             sizing_mode="stretch_width", css_classes=["units-card"])
-        self.table = pn.pane.HTML("", css_classes=["units-table"], visible=s.units, width=330)
+        # below the time history, as wide as it: each row reads on one line
+        self.table = pn.pane.HTML("", css_classes=["units-table"], visible=s.units,
+                                  sizing_mode="stretch_width", styles={"overflow-x": "auto"})
         s.param.watch(self._on_units, "units")
         s.param.watch(self._show_messages, "messages")
-        s.param.watch(self._on_kind, "excitation")
+        s.param.watch(self._on_kind, ["excitation", "order", "phases"])
         s.param.watch(self._draw_table, "result")
         self._on_kind()
         self._draw_table()
@@ -145,8 +148,16 @@ class UnitsView(pn.viewable.Viewer):
         if self.excitation.value != s.excitation:
             self.excitation.value = s.excitation
         sym, unit = ("θ", "rad") if s.excitation == "displacement" else ("α", "rad/s²")
+        # the fundamental's harmonics, named by the engine order each one is
         for k, name in ((1, "amp1"), (2, "amp2")):
-            self.fields[name].label.object = _label_html(f"{sym}{'₁₂'[k - 1]} · order-{k} amplitude [{unit}]")
+            self.fields[name].label.object = _label_html(
+                f"{sym}{'₁₂'[k - 1]} · amplitude at engine order {k * s.order:g} [{unit}]")
+        wave = "sin(k ω t + φ_k)" if s.phases == "paper" else "cos(k ω t − φ_k)"
+        self.heading.object = _bold_html(f"Driving-gear excitation Σ a_k {wave} ({s.phases} "
+                                         "phases); harmonic 1 sets the time origin")
+        self.fields["phase2"].label.object = _label_html(
+            f"φ₂ · phase at engine order {2 * s.order:g} [°], "
+            + ("sin(2ωt + φ₂)" if s.phases == "paper" else "cos(2ωt − φ₂)"))
 
     def _on_excitation(self, event) -> None:
         s = self.state
@@ -166,11 +177,15 @@ class UnitsView(pn.viewable.Viewer):
             if self.table.object:
                 self.table.object = ""
             return
-        rows = [tuple(r) for r in physical_table(run.phys, run.params.noise)]
-        self.table.object = table_html(rows, "units-params", ("quantity", "physical", "dimensionless"))
+        rows = [tuple(r) for r in physical_table(run.phys, run.params.noise, run.phases)]
+        self.table.object = table_html(rows, "units-params", ("quantity", "physical", "dimensionless"),
+                                       nowrap=True)
+
+
+def _bold_html(text: str) -> str:
+    import html
+    return f"<div style='font-size:13px'><b>{html.escape(text)}</b></div>"
 
 
 def _bold(text: str, **kw: Any) -> pn.pane.HTML:
-    import html
-    return pn.pane.HTML(f"<div style='font-size:13px'><b>{html.escape(text)}</b></div>",
-                        sizing_mode="stretch_width", **kw)
+    return pn.pane.HTML(_bold_html(text), sizing_mode="stretch_width", **kw)

@@ -42,6 +42,15 @@ MAX_SWITCHED = 4
 SHORT = {"fold": "fold", "period_doubling": "PD", "neimark_sacker": "NS", "grazing": "graze",
          "stick_onset": "stick", "stick_end": "stick end", "sequence_change": "sequence",
          "permanent_contact": "contact"}
+#: Why a direction of a continuation stopped, in words (the core's status names → text).
+STOPPED = {"bound": "at the end of the range", "closed": "where the branch closed on itself",
+           "done": "at the end of the range", "grazing": "at a grazing impact",
+           "stick_end": "where sticking ends", "stick_onset": "where sticking begins",
+           "permanent_contact": "where the gear comes to rest on a tooth",
+           "step_too_small": "where the step became too small to go on",
+           "inadmissible": "where the orbit stops being an orbit of the model",
+           "max_points": "at the limit of points", "cancelled": "when cancelled"}
+TOWARDS = {"up": "upwards", "down": "downwards"}
 
 
 @dataclasses.dataclass
@@ -230,12 +239,14 @@ class Branch:
         stable = int(self.points["stable"].sum()) if n else 0
         bifs = self.marks.drop_duplicates(["kind", "x"])
         found = ", ".join(f"{SHORT.get(k, k)} at {x:.6g}" for k, x in zip(bifs["kind"], bifs["x"]))
-        ends = "; ".join(f"{d}: {self.meta[d]['status']}" for d in DIRECTIONS if d in self.meta)
-        src = "disk cache" if self.from_cache else "computed"
+        ends = "; ".join(
+            f"{TOWARDS[d]} {STOPPED.get(self.meta[d]['status'], self.meta[d]['status'].replace('_', ' '))}"
+            for d in DIRECTIONS if d in self.meta)
+        src = "read from the disk cache" if self.from_cache else "computed"
         more = len(self.meta.get("switched", []))
         switched = f" · {more} more branch{'es' if more > 1 else ''} from period doublings" if more else ""
         return (f"Continued branch: {n} points ({stable} stable, {n - stable} unstable)"
-                f"{' · ' + found if found else ''} · stopped ({ends}){switched} · {src}")
+                f"{' · ' + found if found else ''} · stopped {ends}{switched} · {src}")
 
 
 def to_axis(name: str, phases: str, phys: Any, values: np.ndarray,

@@ -33,7 +33,8 @@ def diagram(params: RattleParams, name: str, values: np.ndarray, transient: int,
     """Impacts against ``name`` swept over ``values``, and each value's regime.
 
     Returns ``value``, ``impulse``, ``flank`` (one entry per recorded impact) and
-    ``swept``, ``regime``, ``chaotic`` (one per value run), ``cancelled``.
+    ``swept``, ``regime``, ``chaotic`` (one per value run), ``cancelled`` and ``from_cache``
+    (served by the disk cache, not computed now).
     """
     if use_cache:
         from ..core import cached_sweep as run
@@ -48,7 +49,7 @@ def diagram(params: RattleParams, name: str, values: np.ndarray, transient: int,
             "swept": np.asarray(s["value"], dtype=np.float64),
             "regime": np.asarray(s["regime"], dtype="U5"),
             "chaotic": np.asarray(s["chaotic"], dtype=bool),
-            "cancelled": bool(res.cancelled)}
+            "cancelled": bool(res.cancelled), "from_cache": bool(getattr(res, "from_cache", False))}
 
 
 def _client(address: str) -> Any:

@@ -23,6 +23,7 @@ import dataclasses
 
 import numpy as np
 
+from ..model.phases import paper_to_core
 from ..model.units import PhysicalParams
 
 
@@ -121,11 +122,21 @@ def flank_colours(flank) -> np.ndarray:
     return np.where(np.asarray(flank) > 0, FLANK_COLOURS[ACTIVE], FLANK_COLOURS[REVERSE]).astype(object)
 
 
-def physical_table(phys: PhysicalParams, noise: float | None = None) -> list[tuple[str, str, str]]:
+def physical_table(phys: PhysicalParams, noise: float | None = None,
+                   phases: str = "core") -> list[tuple[str, str, str]]:
     """Rows ``(quantity, physical value, dimensionless value)`` of a physical parameter set, for
     showing both systems side by side (``rattle units``, the dashboard's units panel); with
-    ``noise``, a row says what the model's noise level means for this gear."""
+    ``noise``, a row says what the model's noise level means for this gear.
+
+    Harmonic ``k`` of the fundamental is named by its engine order, ``k`` × ``phys.order``.
+    Phases are given in one convention, ``phases``: ``"core"`` (``cos(k t − φ_k)``) or
+    ``"paper"`` (``sin(k t + φ_k)``).
+    """
+    if phases not in ("core", "paper"):
+        raise ValueError(f"phases = {phases!r}; allowed: core, paper")
     p = phys.to_dimensionless()
+    shown = ((lambda v, k: v) if phases == "core"
+             else (lambda v, k: float(paper_to_core(v, k))))  # the map is its own inverse
     unit = "rad" if phys.excitation == "displacement" else "rad/s²"
     sym = "θ" if phys.excitation == "displacement" else "α"
     rows = [
@@ -134,15 +145,15 @@ def physical_table(phys: PhysicalParams, noise: float | None = None) -> list[tup
         ("drag torque C", f"{phys.drag_torque:.6g} N·m", f"F = C/R_b = {phys.force:.6g} N"),
         ("engine speed, order", f"{phys.rpm:.6g} rpm, order {phys.order:g}",
          f"ω = {phys.omega:.6g} rad/s ({phys.frequency_hz:.6g} Hz)"),
-        (f"{sym}₁ (harmonic 1)", f"{phys.amplitudes[0]:.6g} {unit}",
+        (f"{sym}₁ (engine order {phys.order:g})", f"{phys.amplitudes[0]:.6g} {unit}",
          f"H₁ = {phys.H1 * 1e6:.6g} µm"),
         ("Λ = m H₁ ω² / F", "", f"{p.lam:.6g}"),
         ("backlash b", f"{phys.backlash_um:.6g} µm ({phys.backlash_deg:.6g}°)", f"j = {p.j:.6g}"),
     ]
     for k in range(2, p.n_harmonics + 1):
-        rows.append((f"harmonic {k} ({sym}_{k}, phase)",
-                     f"{phys.amplitudes[k - 1]:.6g} {unit}, {phys.phases_deg[k - 1]:.6g}°",
-                     f"h_{k} = {p.amplitudes[k - 1]:.6g}, φ_{k} = {p.phases_deg[k - 1]:.6g}°"))
+        rows.append((f"engine order {k * phys.order:g} ({sym}_{k}, phase {phases})",
+                     f"{phys.amplitudes[k - 1]:.6g} {unit}, {shown(phys.phases_deg[k - 1], k):.6g}°",
+                     f"h_{k} = {p.amplitudes[k - 1]:.6g}, φ_{k} = {shown(p.phases_deg[k - 1], k):.6g}°"))
     rows.append(("restitution r", f"{phys.r:.6g}", f"{p.r:.6g}"))
     if noise is not None:
         rows.append(("restitution scatter per impact", f"r = {phys.r:.4g} ± {phys.r * noise:.3g}",

@@ -215,8 +215,18 @@ class RattleParams:
     @classmethod
     def paper(cls, lam: float, r: float = 0.65, j: float = 8.0,
               amplitudes: Iterable[float] = (1.0,), phases_deg: Iterable[float] = (0.0,),
-              v_stick: float = 1e-6, noise: float = NOISE_DEFAULT) -> "RattleParams":
-        """Parameters given in the paper's phase convention (:mod:`rattle_core.model.phases`)."""
+              v_stick: float = 1e-6, noise: float = NOISE_DEFAULT, *, h2: float | None = None,
+              phi2: float = 0.0) -> "RattleParams":
+        """Parameters given in the paper's phase convention (:mod:`rattle_core.model.phases`).
+
+        ``h2`` and ``phi2`` give the second harmonic as the CLI's ``--h2``/``--phi2`` do (the
+        paper's Figures 4–8: ``RattleParams.paper(lam=3.3, h2=0.25, phi2=45)``); they replace
+        ``amplitudes`` and ``phases_deg``, which must then be left at their defaults.
+        """
+        if h2 is not None:
+            if tuple(amplitudes) != (1.0,) or tuple(phases_deg) != (0.0,):
+                raise ValueError("h2/phi2 give the harmonics: leave amplitudes and phases_deg out")
+            amplitudes, phases_deg = (1.0, h2), (0.0, phi2)
         return cls(lam=lam, r=r, j=j, amplitudes=tuple(amplitudes),
                    phases_deg=paper_to_core_phases(phases_deg), v_stick=v_stick, noise=noise)
 
