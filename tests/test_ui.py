@@ -85,19 +85,46 @@ def box_value(page, name: str) -> float:
     return float(box(page, name).input_value())
 
 
+#: The number in the first input box inside ``css`` (null when empty), and whether it shows
+#: ``want`` within ``tol``. Panel draws its widgets in shadow roots, so the search walks into them.
+BOX_VALUE = """(css) => {
+  const deep = (root, sel) => {
+    const hit = root.querySelector(sel);
+    if (hit) return hit;
+    for (const el of root.querySelectorAll('*')) {
+      if (el.shadowRoot) { const f = deep(el.shadowRoot, sel); if (f) return f; }
+    }
+    return null;
+  };
+  const field = deep(document, css);
+  const box = field && (deep(field.shadowRoot || field, 'input.bk-input') || deep(field, 'input.bk-input'));
+  return box == null || box.value === '' ? null : Number(box.value);
+}"""
+BOX_SHOWS = ("([css, want, tol]) => { const v = (" + BOX_VALUE + ")(css); "
+             "return v !== null && Math.abs(v - want) <= tol; }")
+
+
 def wait_box(page, name: str, expected: float, tol: float = 1e-9, timeout: float = 20_000) -> None:
-    """Wait until the entry box of ``name`` shows ``expected``."""
-    waited, step = 0.0, 100
-    while True:
-        try:
-            if abs(box_value(page, name) - expected) <= tol:
-                return
-        except ValueError:
-            pass
-        if waited >= timeout:
-            raise AssertionError(f"{name} box shows {box(page, name).input_value()!r}, expected {expected}")
-        page.wait_for_timeout(step)
-        waited += step
+    """Wait until the entry box of ``name`` shows ``expected`` (within ``tol``)."""
+    try:
+        page.wait_for_function(BOX_SHOWS, arg=[f".ctl-{name}", expected, tol], timeout=timeout)
+    except Exception:
+        raise AssertionError(f"{name} box shows {box(page, name).input_value()!r}, "
+                             f"expected {expected}") from None
+
+
+def wait_box_leaves(page, css: str, old: float, timeout: float = 60_000) -> None:
+    """Wait until the input box inside ``css`` shows a number other than ``old`` (the server
+    has pushed its new value)."""
+    page.wait_for_function("([css, old]) => { const v = (" + BOX_VALUE + ")(css); "
+                           "return v !== null && v !== old; }", arg=[css, old], timeout=timeout)
+
+
+def set_input(page, css: str, value: str) -> None:
+    """Type ``value`` into the input inside ``css`` and send it (Enter)."""
+    b = page.locator(f"{css} input").first
+    b.fill(value)
+    b.press("Enter")
 
 
 def test_page_loads_without_console_errors(page, dashboard_server):

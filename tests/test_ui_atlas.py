@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_ui import open_dashboard, wait_bif
-from test_ui_maps import MAP_READY, set_input
+from test_ui import open_dashboard, set_input, wait_bif, wait_box_leaves
+from test_ui_maps import MAP_READY
 
 pytestmark = [pytest.mark.ui, pytest.mark.timeout(300)]
 
@@ -45,12 +45,12 @@ def test_draw_the_atlas_over_a_regime_map(page, dashboard_server):
     page.locator(".bk-tab", has_text="Maps").first.click()
     page.locator(".map-compute button").first.wait_for(timeout=120_000)
     page.locator(".ctl-y_axis select").first.select_option(label="r")
-    page.wait_for_timeout(500)
+    # the new axis brings its own range; typing before it arrives would be overwritten
+    wait_box_leaves(page, ".map-y-stop", 360.0)
     for css, value in ((".map-x-start", "0.8"), (".map-x-stop", "2"), (".map-x-num", "10"),
                        (".map-y-start", "0.4"), (".map-y-stop", "0.8"), (".map-y-num", "6"),
                        (".map-transient", "40"), (".map-record", "20")):
         set_input(page, css, value)
-    page.wait_for_timeout(500)
     page.locator(".map-compute button").first.click()
     page.wait_for_function(MAP_READY, timeout=120_000)
     page.locator(".map-status", has_text="10 × 6 = 60 points").first.wait_for(timeout=60_000)

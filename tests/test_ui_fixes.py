@@ -20,7 +20,8 @@ from PIL import Image
 
 from app import dashboard as dashboard_module
 from conftest import free_port, wait_for
-from test_ui import READY, box, box_value, message, open_dashboard, painted, wait_bif, wait_box
+from test_ui import (READY, box, box_value, message, open_dashboard, painted, set_input, wait_bif,
+                     wait_box)
 
 pytestmark = [pytest.mark.ui, pytest.mark.timeout(600)]
 
@@ -55,12 +56,6 @@ MAP_IMAGE = """() => {
   }
   return null;
 }"""
-
-
-def set_input(page, css: str, value: str) -> None:
-    b = page.locator(f"{css} input").first
-    b.fill(value)
-    b.press("Enter")
 
 
 def fig(page, name: str, x: float = 0.0, y: float = 0.0) -> dict:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 from playwright.sync_api import expect
-from test_ui import open_dashboard
+from test_ui import open_dashboard, set_input
 
 pytestmark = [pytest.mark.ui, pytest.mark.timeout(600)]
 
@@ -21,12 +21,6 @@ REGIME_POINTS = """() => {
 }"""
 
 
-def set_input(page, css: str, value: str) -> None:
-    box = page.locator(f"{css} input").first
-    box.fill(value)
-    box.press("Enter")
-
-
 def test_gearbox_tab_from_sample_to_verdict(page, dashboard_server, tmp_path, monkeypatch):
     """Sample → orders; 4 speeds with a drag +50 % variant → onsets in the status, the regime
     plot's 24 points and a CSV of 2 × 4 × 4 rows; a CSV with time going back → the message names the line; Listen → audio."""
@@ -38,8 +32,7 @@ def test_gearbox_tab_from_sample_to_verdict(page, dashboard_server, tmp_path, mo
     for css, value in ((".gb-rpm-num", "4"), (".gb-transient", "60"), (".gb-record", "30")):
         set_input(page, css, value)
     page.locator(".gb-variant select").first.select_option(label="drag torque +/- %")
-    set_input(page, ".gb-drag-pct", "50")
-    page.wait_for_timeout(500)
+    set_input(page, ".gb-drag-pct", "50")  # sent before the click below, on the same socket
     page.locator(".gb-run button").first.click()
     expect(page.locator(".gb-status").first).to_contain_text("Variant (drag torque +50 %)",
                                                              timeout=300_000)

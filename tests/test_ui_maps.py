@@ -9,7 +9,7 @@ import re
 
 import pytest
 from playwright.sync_api import expect
-from test_ui import open_dashboard
+from test_ui import open_dashboard, set_input
 
 pytestmark = [pytest.mark.ui, pytest.mark.timeout(300)]
 
@@ -27,12 +27,6 @@ MAP_READY = "() => (" + MAP_SOURCE + ")() != null"
 MAP_SHAPE = """() => { const s = (""" + MAP_SOURCE + """)();
   const img = s.data.image[0];
   return {size: img.length, codes: [...new Set(Array.from(img).filter(v => !isNaN(v)))]}; }"""
-
-
-def set_input(page, css: str, value: str) -> None:
-    box = page.locator(f"{css} input").first
-    box.fill(value)
-    box.press("Enter")
 
 
 def test_maps_tab_computes_a_small_map(page, dashboard_server):

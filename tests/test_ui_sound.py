@@ -10,6 +10,7 @@ import io
 
 import numpy as np
 import pytest
+from playwright.sync_api import expect
 from scipy.io import wavfile
 
 from rattle_core.analysis.sound import DEFAULT_EXCITATION_HZ, DEFAULT_TAIL, PEAK
@@ -48,12 +49,11 @@ def wait_sound(page, timeout: float = 30_000) -> None:
 
 def wait_text(page, selector: str, stale: bool, timeout: float = 20_000) -> None:
     """Wait until the text of ``selector`` does (or does not) say the sound is stale."""
-    waited, step = 0.0, 100
-    while ("Stale" in " ".join(page.locator(selector).all_inner_texts())) != stale:
-        if waited >= timeout:
-            raise AssertionError(f"{selector} never {'said' if stale else 'stopped saying'} 'Stale'")
-        page.wait_for_timeout(step)
-        waited += step
+    saying = expect(page.locator(selector).filter(has_text="Stale"))
+    if stale:
+        saying.not_to_have_count(0, timeout=timeout)
+    else:
+        saying.to_have_count(0, timeout=timeout)
 
 
 def test_page_holds_the_rattle_sound(page, dashboard_server):

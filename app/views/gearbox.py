@@ -28,6 +28,7 @@ import param
 from ..core import Excitation, Gear, Gearbox, check_verdict_rpm
 from ..state import ExplorerState, GearboxSettings
 from ..ui.gearbox_plots import metric_plot, orders_plot, regime_plot
+from ..ui.job_panel import JobPanel
 from ..ui.labels import text_html
 from ..ui.plots import HoloViewsPane
 from ..ui.widgets import Field, message
@@ -62,8 +63,6 @@ class GearboxView(pn.viewable.Viewer):
         self.variant: Any = None
         self.variant_text = ""
         self.report = ""
-        self.job: Any = None
-        self._request: Any = None
         self.measurement_input = pn.widgets.FileInput(accept=".csv,.gz", css_classes=["gb-measurement"],
                                                       sizing_mode="stretch_width")
         self.sample_button = pn.widgets.Button(label="Use the sample run-up (synthetic)",
@@ -77,12 +76,11 @@ class GearboxView(pn.viewable.Viewer):
                                                sizing_mode="stretch_width")
         self.run_button = pn.widgets.Button(label="Run the verdict", color="primary",
                                             css_classes=["gb-run"], sizing_mode="stretch_width")
-        self.cancel_button = pn.widgets.Button(label="Cancel", disabled=True, css_classes=["gb-cancel"],
-                                               sizing_mode="stretch_width")
-        self.progress = pn.indicators.Progress(value=0, max=100, visible=False, height=14,
-                                               sizing_mode="stretch_width", css_classes=["gb-progress"])
-        self.status = pn.pane.HTML(text_html("No verdict yet."), css_classes=["gb-status"],
-                                   sizing_mode="stretch_width")
+        # the verdict's job: progress, Cancel and status (``gb-progress``, ``gb-cancel``, ``gb-status``)
+        self.run_panel = JobPanel(self.jobs, "gearbox", "gb")
+        self.run_panel.say("No verdict yet.")
+        self.cancel_button, self.progress, self.status = (
+            self.run_panel.cancel_button, self.run_panel.progress, self.run_panel.status)
         self.listen_button = pn.widgets.Button(label="Listen", css_classes=["gb-listen"])
         self.audio = pn.pane.Audio(None, sample_rate=48_000, name="gearbox sound", css_classes=["gb-audio"])
         self.listen_status = pn.pane.HTML("", css_classes=["gb-listen-status"])
@@ -293,44 +291,27 @@ class GearboxView(pn.viewable.Viewer):
         except ValueError as exc:
             st.say("gearbox-run", str(exc))
             return False
-        self._request = req = object()
         self.variant_text = text
-        self.progress.param.update(value=0, visible=True)
-        self.cancel_button.disabled = False
-        self.status.object = text_html(f"Computing {len(box.gears)} gears × {rpm.size} speeds"
-                                       f"{' and the variant' if variant is not None else ''}…")
-        self.job = self.jobs.submit("gearbox", work.verdicts, (box, variant, rpm, s.transient, s.record, text),
-                                    time_limit=600.0, on_progress=lambda f: self._progress(req, f),
-                                    on_done=lambda r: self._done(req, r),
-                                    on_error=lambda m: self._error(req, m))
+        self.run_panel.submit(
+            object(), work.verdicts, (box, variant, rpm, s.transient, s.record, text),
+            f"Computing {len(box.gears)} gears × {rpm.size} speeds"
+            f"{' and the variant' if variant is not None else ''}…", 600.0,
+            on_done=self._done, on_error=self._error)
         return True
 
+    @property
+    def job(self) -> Any:
+        """The running verdict's job, or None."""
+        return self.run_panel.job
+
     def cancel(self, text: str | None = None) -> None:
-        if self.job is not None:
-            self.job.cancel()
-            self.job = None
-        self._request = None
-        self.progress.visible = False
-        self.cancel_button.disabled = True
-        if text:
-            self.status.object = text_html(text)
+        self.run_panel.stop(text)
 
-    def _progress(self, req: Any, fraction: float) -> None:
-        if req is self._request:
-            self.progress.value = int(100 * fraction)
+    def _error(self, msg: str) -> None:
+        self.run_panel.say("No verdict: see the message above.")
+        self.state.say("gearbox-run", f"The verdict could not be computed: {msg}")
 
-    def _error(self, req: Any, msg: str) -> None:
-        if req is self._request:
-            self.cancel(None)
-            self.status.object = text_html("No verdict: see the message above.")
-            self.state.say("gearbox-run", f"The verdict could not be computed: {msg}")
-
-    def _done(self, req: Any, result: tuple) -> None:
-        if req is not self._request:
-            return
-        self.job, self._request = None, None
-        self.progress.visible = False
-        self.cancel_button.disabled = True
+    def _done(self, result: tuple) -> None:
         self.base, self.variant, self.report = result
         onsets = "; ".join(f"{k}: {'from %g rpm' % v if math.isfinite(v) else 'no rattle'}"
                            for k, v in self.base.onsets.items())
@@ -340,7 +321,7 @@ class GearboxView(pn.viewable.Viewer):
             text += f" Variant ({self.variant_text}): " + "; ".join(
                 f"{k}: {'from %g rpm' % v if math.isfinite(v) else 'no rattle'}"
                 for k, v in self.variant.onsets.items()) + "."
-        self.status.object = text_html(text)
+        self.run_panel.say(text)
         self.csv_download.disabled = False
         self.report_download.disabled = not self.report
         self.revision += 1

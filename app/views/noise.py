@@ -17,6 +17,7 @@ import panel as pn
 import param
 
 from ..state import ExplorerState
+from ..ui.job_panel import JobPanel
 from ..ui.labels import num
 from ..work import tasks
 
@@ -36,14 +37,17 @@ class NoiseView(pn.viewable.Viewer):
         super().__init__(**params)
         self.badge = pn.pane.HTML("", css_classes=["noise-badge"], sizing_mode="stretch_width",
                                   visible=False)
-        self.progress = pn.indicators.Progress(value=0, max=100, width=160, visible=False)
+        # the check's job: its progress and Cancel (``noise-progress``, ``noise-cancel``)
+        self.run = JobPanel(self.jobs, "noise", "noise")
+        self.run.cancel_button.on_click(lambda e: self._cancel())
         self.result: dict | None = None
-        self._key: tuple | None = None
+        self._key: str | None = None
         self.state.param.watch(self._check, "result")
         self._check()
 
     def __panel__(self):
-        return pn.Row(self.badge, self.progress, sizing_mode="stretch_width")
+        return pn.Row(self.badge, self.run.progress, self.run.cancel_button,
+                      sizing_mode="stretch_width")
 
     def _check(self, *_: Any) -> None:
         run = self.state.result
@@ -54,28 +58,20 @@ class NoiseView(pn.viewable.Viewer):
             return
         self._key, self.result = key, None
         if run.cls.period > 0 or run.cls.impacts_per_period == 0:
-            self.badge.visible = self.progress.visible = False
+            self.run.stop()
+            self.badge.visible = False
             return
         self._show("checking whether the statistics depend on the noise level "
                    f"({RUNS} runs at each of 6 levels)…", "pending")
-        self.progress.param.update(value=0, visible=True)
-        try:
-            self.jobs.submit("noise", tasks.noise_check, (run.params, RUNS, PERIODS, TRANSIENT),
-                             time_limit=180.0,
-                             on_progress=lambda f, k=key: self._progress(k, f),
-                             on_done=lambda out, k=key, p=run.params: self._done(k, p, out),
-                             on_error=lambda msg, k=key: self._error(k, msg))
-        except RuntimeError as exc:
-            self._error(key, str(exc))
+        self.run.submit(key, tasks.noise_check, (run.params, RUNS, PERIODS, TRANSIENT), "",
+                        180.0, on_done=lambda out, p=run.params: self._done(p, out),
+                        on_error=self._error)
 
-    def _progress(self, key: tuple, fraction: float) -> None:
-        if key == self._key:
-            self.progress.value = int(100 * fraction)
+    def _cancel(self) -> None:
+        self.run.stop()
+        self._show("noise check cancelled", "cancelled")
 
-    def _done(self, key: tuple, params: Any, out: dict) -> None:
-        if key != self._key:
-            return
-        self.progress.visible = False
+    def _done(self, params: Any, out: dict) -> None:
         self.result = out
         if out["sensitive"]:
             self._show(f"{out['describe']}. {MEANING}", "sensitive")
@@ -87,10 +83,8 @@ class NoiseView(pn.viewable.Viewer):
                  f"{params.noise:g}" if math.isfinite(v) else "")
         self._show(f"{out['describe']}: {where}", "steady")
 
-    def _error(self, key: tuple, msg: str) -> None:
-        if key == self._key:
-            self.progress.visible = False
-            self._show(f"the noise check could not run: {msg}", "failed")
+    def _error(self, msg: str) -> None:
+        self._show(f"the noise check could not run: {msg}", "failed")
 
     def _show(self, text: str, kind: str) -> None:
         self.badge.object = (f'<div class="noise-check" data-kind="{kind}">'

@@ -77,8 +77,10 @@ def t_quantile(n: int) -> float:
     """Student's t quantile t₀.₉₇₅ with ``n − 1`` degrees of freedom (``inf`` for n < 2)."""
     if n < 2:
         return math.inf
-    from scipy.stats import t
-    return float(t.ppf(0.975, n - 1))
+    # scipy.special, not scipy.stats: the dashboard calls this on its first run, and
+    # scipy.stats costs most of a second to import
+    from scipy.special import stdtrit
+    return float(stdtrit(n - 1, 0.975))
 
 
 def estimate(values, exact: bool = False) -> Estimate:
@@ -187,7 +189,7 @@ def sensitivity_verdict(rows: list[dict]) -> tuple[bool, list[str]]:
 
     Returns ``(sensitive, reasons)``, each reason a sentence naming the statistic.
     """
-    from scipy.stats import chi2
+    from scipy.special import chdtri
     reasons: list[str] = []
     if len({r["attractor"] for r in rows}) > 1:
         reasons.append("the attractor changes with the noise level: " + ", ".join(
@@ -205,7 +207,7 @@ def sensitivity_verdict(rows: list[dict]) -> tuple[bool, list[str]]:
             w = 1.0 / se ** 2
             mean = float(np.sum(w * v) / np.sum(w))
             q = float(np.sum(w * (v - mean) ** 2))
-            differ = q > chi2.isf(level, len(est) - 1)
+            differ = q > chdtri(len(est) - 1, level)
             if differ:
                 reasons.append(f"{words} {np.min(v):.3g}–{np.max(v):.3g} over noise "
                                f"{rows[0]['noise']:g}…{rows[-1]['noise']:g}")
