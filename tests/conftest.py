@@ -88,6 +88,14 @@ def _patient_navigation(request):
     yield
 
 
+def patient_context(browser, **kwargs):
+    """A new browser context whose page loads wait as long as :func:`_patient_navigation`'s."""
+    kwargs.setdefault("viewport", {"width": 1400, "height": 1000})
+    context = browser.new_context(**kwargs)
+    context.set_default_navigation_timeout(NAVIGATION_TIMEOUT_MS)
+    return context
+
+
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

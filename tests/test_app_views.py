@@ -299,3 +299,21 @@ def test_badge_says_which_kind_of_answer_motion_through_sticking_is(params, nois
                             transient=500, lyapunov=True))
     html = badge_html(cls)
     assert f'data-sticking="{sticking}"' in html and text in html
+
+
+def test_time_history_zoom_lasts_while_the_time_axis_keeps_its_meaning(dash):
+    """A zoom survives a Λ change, but an engine-speed change reframes the time history."""
+    th, s = dash.time_history, dash.state
+    th.fig.x_range.update(start=1.0, end=2.0)  # what a zoom in the page sends back
+    zoom = th.fig.x_range
+    s.lam = 3.1
+    assert th.fig.x_range is zoom and (zoom.start, zoom.end) == (1.0, 2.0)
+    s.units = True
+    t_end = th.sources["motion"].data["t"][-1]
+    th.fig.x_range.update(start=10.0, end=20.0)
+    zoom = th.fig.x_range
+    s.rpm = 0.8 * s.rpm
+    new_end = th.sources["motion"].data["t"][-1]
+    assert new_end == pytest.approx(t_end / 0.8, rel=1e-6)
+    fresh = th.fig.x_range
+    assert fresh is not zoom and math.isnan(fresh.start) and math.isnan(fresh.end)

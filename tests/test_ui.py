@@ -11,6 +11,7 @@ import re
 from urllib.parse import urlparse
 
 import pytest
+from conftest import patient_context
 
 pytestmark = [pytest.mark.ui, pytest.mark.timeout(300)]
 
@@ -298,7 +299,7 @@ def test_no_request_leaves_localhost(page, dashboard_server):
 
 def test_three_sessions_keep_their_own_state(browser, dashboard_server):
     """Three concurrent sessions changed differently each keep their own parameters and plots."""
-    contexts = [browser.new_context(viewport={"width": 1400, "height": 1000}) for _ in range(3)]
+    contexts = [patient_context(browser) for _ in range(3)]
     try:
         pages = [c.new_page() for c in contexts]
         for p in pages:

@@ -13,6 +13,7 @@ import time
 
 import pytest
 
+from conftest import patient_context
 from test_ui import CHECKSUM, READY, box, message, open_dashboard, wait_box
 from test_page_run import WORST
 
@@ -21,8 +22,8 @@ pytestmark = [pytest.mark.ui, pytest.mark.timeout(600)]
 
 def test_a_second_session_redraws_while_the_worst_link_runs(browser, dashboard_server):
     """Session B's Λ changes redraw within 20 s each while session A loads the worst links."""
-    ctx_a = browser.new_context(viewport={"width": 1400, "height": 1000})
-    ctx_b = browser.new_context(viewport={"width": 1400, "height": 1000})
+    ctx_a = patient_context(browser)
+    ctx_b = patient_context(browser)
     try:
         a, b = ctx_a.new_page(), ctx_b.new_page()
         open_dashboard(b, dashboard_server)

@@ -9,8 +9,11 @@ to about 290 ms, twice the 150 ms budget (``benchmarks/bench_app.py``). Here the
 built once per session and a redraw replaces the data of its ``ColumnDataSource``s: about
 8 ms. The section and the diagram stay HoloViews elements.
 
-The ranges are ``DataRange1d``: they follow the data until the user zooms, keep the user's
-zoom across redraws, and the reset tool returns to the data. In physical-units mode the axes
+The ranges are ``DataRange1d``: they follow the data until the user zooms, and the reset tool
+returns to the data. A zoom is kept across redraws while the axes keep their meaning, so a
+Λ sweep can be watched inside one window of time; when the time span of the data changes
+(an engine-speed change in physical units rescales the forcing period, or the periods shown
+change) or the units change, the old window means nothing and the plot frames the new data. In physical-units mode the axes
 are ms and µm (or degrees of the idle gear). The title holds the parameters, so a saved PNG
 carries them, and the save tool's file name does too. Each flank's impacts are a legend
 entry of their own, in their own colour.
@@ -83,7 +86,8 @@ class TimeHistoryView(pn.viewable.Viewer):
         super().__init__(**params)
         self.fig, self.sources = time_history_figure()
         self.pane = pn.pane.Bokeh(self.fig, sizing_mode="stretch_width", css_classes=["time-history"])
-        self._axes: tuple | None = None
+        #: What the current ranges were framed for: the axis labels and the data's time span.
+        self._frame: tuple | None = None
         self.state.param.watch(self.draw, ["result", "shown", "backlash_unit"])
         self.draw()
 
@@ -104,10 +108,14 @@ class TimeHistoryView(pn.viewable.Viewer):
         self.sources["stick"].data = {"xs": [s[0] for s in data["stick"]],
                                       "ys": [s[1] for s in data["stick"]]}
         xl, yl, _ = data["labels"]
-        if self._axes != (xl, yl):
-            if self._axes is not None:  # new units: the old zoom means nothing
+        t = np.asarray(data["motion"]["t"])
+        # the span to 9 digits: a Λ change at fixed speed redraws the same times
+        span = (float(f"{t[0]:.9g}"), float(f"{t[-1]:.9g}")) if t.size else (0.0, 0.0)
+        frame = (xl, yl, span)
+        if self._frame != frame:
+            if self._frame is not None:
                 self.fig.x_range, self.fig.y_range = DataRange1d(), DataRange1d()
-            self._axes = (xl, yl)
+            self._frame = frame
             self.fig.xaxis.axis_label, self.fig.yaxis.axis_label = xl, yl
         title = f"Time history · {caption(run)}"
         if self.fig.title.text != title:
