@@ -46,6 +46,23 @@ def caption(run: Any) -> str:
     return " · ".join(parts)
 
 
+def run_label(letter: str, run: Any, phases: str) -> str:
+    """One run named for a comparison: ``'A: Λ = 3.3, r = 0.65, j = 8, H₂/H₁ = 0.25,
+    φ₂ = 45° (chaotic)'`` (phases in the page's convention ``phases``; plain text)."""
+    p = run.params
+    shown = display_phases(p, phases)
+    parts = [f"Λ = {num(p.lam, 6)}", f"r = {num(p.r, 4)}", f"j = {num(p.j, 5)}"]
+    if p.n_harmonics > 1:
+        parts.append(f"H₂/H₁ = {num(p.amplitudes[1], 4)}, φ₂ = {num(shown[1], 5)}°")
+    extra = sum(1 for a in p.amplitudes[2:] if a != 0.0)
+    if extra:
+        parts.append(f"+{extra} harmonic{'s' if extra > 1 else ''}")
+    cls = run.cls
+    what = ("chaotic" if cls.chaotic else f"period {cls.period}" if cls.period
+            else "no period ≤ 32")
+    return f"{letter}: {', '.join(parts)} ({what}, regime {cls.regime})"
+
+
 def file_stem(run: Any, what: str) -> str:
     """A file name (no extension) holding the run's parameters, safe on every file system."""
     p = run.params
