@@ -30,7 +30,7 @@ class PinView(pn.viewable.Viewer):
     def __init__(self, **params: Any):
         super().__init__(**params)
         s = self.state
-        self.pin_button = pn.widgets.Button(label="Pin this run", button_type="primary", width=130,
+        self.pin_button = pn.widgets.Button(label="Pin this run", color="primary", width=130,
                                             css_classes=["pin-run"],
                                             description="Keep this run as A; later changes are B")
         self.unpin_button = pn.widgets.Button(label="Unpin", width=90, css_classes=["unpin-run"])

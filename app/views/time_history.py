@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 import panel as pn
 import param
+from bokeh.core.properties import value
 from bokeh.models import (ColumnDataSource, DataRange1d, HoverTool, Legend, LegendItem, SaveTool,
                           Span)
 from bokeh.plotting import figure
@@ -141,5 +142,7 @@ class TimeHistoryView(pn.viewable.Viewer):
         trace = self.pinned_trace(run)
         self.sources["pinned"].data = trace or {"t": [], "x": []}
         gear, pinned = self.fig.legend[0].items[:2]
-        gear.label = GEAR_LABEL if trace is None else GEAR_LABEL_B
+        label = GEAR_LABEL if trace is None else GEAR_LABEL_B
+        if gear.label != value(label):  # a plain string would be read as a column's name
+            gear.label = value(label)
         pinned.visible = trace is not None
