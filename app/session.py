@@ -14,11 +14,7 @@ The URL is ``pn.state.location.sync`` of the state. A key whose value param refu
 message beside its control and the URL shows the value kept; unknown keys and empty values
 get a message too. The messages are plain text (the views escape them).
 
-A pinned run (``state.pinned``, run A) is computed once when the pin changes, through the
-same budgeted path as the live run (its own :class:`~app.work.page_run.PageRun`, so neither
-cancels the other), and published as ``state.pinned_result``; pinning the run on the page
-reuses ``state.result`` itself. A pin the page cannot run is refused with a message, and the
-last pin stays.
+A pinned run (``state.pinned``, A) is run by :class:`app.pinning.Pinner`.
 
 Background work goes through :class:`SessionJobs`: the server's job pool
 (:mod:`app.work.jobs`), with results moved onto this session's document. :meth:`Session.destroy`
@@ -39,8 +35,9 @@ import param
 from rattle_core import SolverError
 
 from .work import jobs as jobs_module
-from .state import (PHYSICAL_KEYS, RUN_KEYS, URL_KEYS, ExplorerState, Run, pinned_state,
-                    rattle_params, rejection)
+from .pinning import Pinner, drop_bad_pin
+from .state import (PHYSICAL_KEYS, RUN_KEYS, URL_KEYS, ExplorerState, Run, rattle_params,
+                             rejection)
 from .physical import LinkError, link, run_physical
 from .query import readable
 from .work.page_run import TIME_LIMIT, PageRun, run_kwargs
@@ -143,12 +140,9 @@ class Session:
         self.state = ExplorerState()
         self.jobs = SessionJobs(self.key, doc, pool)
         self.page = PageRun(self.jobs)
-        self.pin_page = PageRun(self.jobs, kind="pin")
         #: ``(params, run kwargs)`` of ``state.result``: a pin of the same run reuses it.
         self._request: tuple | None = None
-        #: The last pin that ran, and its run: what a refused pin returns to.
-        self._pin_good: tuple[str, Any] = ("", None)
-        self._pin_busy = False
+        self.pinner = Pinner(self.state, self.jobs, lambda: self._request)
         self.location = location
         self.last_ms = math.nan
         #: How many simulations this session has run (one per accepted change).
@@ -156,7 +150,6 @@ class Session:
         self._busy = False
         self._good = self._snapshot()
         self._watcher = self.state.param.watch(self._on_change, list(WATCHED))
-        self._pin_watcher = self.state.param.watch(self._on_pin, "pinned")
         self._search_watcher = None
         if location is not None:
             self._sync_url(location)
@@ -268,59 +261,6 @@ class Session:
             finally:
                 self._busy = busy
 
-    # ----- the pinned run (A) ----------------------------------------------------------------
-
-    def _on_pin(self, event) -> None:
-        if self._pin_busy:
-            return
-        with HV_LOCK:  # the views redraw HoloViews plots from here
-            self.pin(event.new)
-
-    def pin(self, text: str) -> None:
-        """Compute and publish the run of pin ``text`` as ``state.pinned_result`` (None for no
-        pin); a pin that cannot run leaves a message and puts the last pin back."""
-        s = self.state
-        self.pin_page.cancel()
-        if not text:
-            self._pin_good = ("", None)
-            s.pinned_result = None
-            s.clear("pinned")
-            return
-        ps = pinned_state(text)  # param has checked the text: this does not raise
-        params, kwargs = rattle_params(ps), run_kwargs(ps)
-        if s.result is not None and self._request == (params, kwargs):
-            self._pinned(text, s.result)
-            return
-        s.pinned_result = None  # until A's run is in, nothing is drawn as A
-
-        def done(out: tuple) -> None:
-            tr, cls, ms = out
-            self._pinned(text, Run(params=params, tr=tr, cls=cls, phys=None, phases=ps.phases,
-                                   ms=ms))
-        try:
-            out = self.pin_page.run(params, kwargs, done, self._pin_failed)
-        except (ValueError, SolverError) as exc:
-            self._pin_failed(str(exc))
-            return
-        if out is not None:
-            done(out)
-
-    def _pinned(self, text: str, run: Run) -> None:
-        self._pin_good = (text, run)
-        self.state.pinned_result = run
-        self.state.clear("pinned")
-
-    def _pin_failed(self, message: str) -> None:
-        """Run A cannot be computed: the last pin and its run come back, with a message."""
-        s = self.state
-        text, run = self._pin_good
-        busy, self._pin_busy = self._pin_busy, True
-        try:
-            s.param.update(pinned=text, pinned_result=run)
-        finally:
-            self._pin_busy = busy
-        s.say("pinned", f"Run A cannot be pinned: {message}. Kept the last pin.")
-
     # ----- the URL ----------------------------------------------------------------------------
 
     def _sync_url(self, location: Any) -> None:
@@ -342,8 +282,9 @@ class Session:
                 location.update_query(**{URL_KEYS[n]: _serialize(s, n) for n in rejected})
 
         clean, unreadable = readable(location.search)
-        if unreadable:  # before Panel reads the link: such a value would fail the whole page
-            location.search = clean
+        pinless = drop_bad_pin(clean, s)
+        if unreadable or pinless != clean:  # before Panel reads the link: such a value would fail the whole page
+            location.search = pinless
         link = location.search
         self._check_query(link)
         for key, why in unreadable.items():
@@ -430,11 +371,11 @@ class Session:
     def destroy(self) -> None:
         """The session closed: cancel its jobs and drop every reference to its results."""
         self.jobs.close()
-        for watcher in (self._watcher, self._pin_watcher):
-            try:
-                self.state.param.unwatch(watcher)
-            except Exception:
-                pass
+        self.pinner.close()
+        try:
+            self.state.param.unwatch(self._watcher)
+        except Exception:
+            pass
         if self.location is not None:
             if self._search_watcher is not None:
                 self.location.param.unwatch(self._search_watcher)
@@ -446,7 +387,6 @@ class Session:
         with param.parameterized.discard_events(self.state):  # no view redraws a closed page
             self.state.result = None
             self.state.pinned_result = None
-        self._pin_good = ("", None)
 
 
 def _serialize(state: ExplorerState, name: str) -> str:

@@ -14,11 +14,7 @@ Phases are stored in the convention the page shows (``phases``): the paper's
 user switches, so the model does not change; :func:`rattle_params` converts to the core.
 
 The URL keys are the parameter names (physical inputs have short keys, :data:`URL_KEYS`).
-
-A run can be pinned (``pinned``, URL key ``pin``) to compare it with the live one: the pin is
-the text of the run's settings (:func:`pin_text`, the keys of :data:`PIN_KEYS`), read back and
-checked item by item by :func:`parse_pin`; the session computes the pinned run once, as
-``pinned_result``, which the plots draw beside ``result``.
+A pinned run (``pinned``, URL key ``pin``) is checked and run by :mod:`app.pinning`.
 """
 from __future__ import annotations
 
@@ -128,15 +124,6 @@ class Said(param.Parameterized):
             self.messages = {k: v for k, v in self.messages.items() if k not in names}
 
 
-class Pin(param.String):
-    """A pinned run's settings as ``'key:value;…'`` text; param refuses text that does not parse."""
-
-    def _validate_value(self, val, allow_None):
-        super()._validate_value(val, allow_None)
-        if val:
-            parse_pin(val)
-
-
 class ExplorerState(Said):
     """Everything one session can set, with its allowed range; and what it computed."""
 
@@ -225,8 +212,8 @@ class ExplorerState(Said):
                              doc="the twin's clicked start (empty: the first gear's, nudged)")
     twin_v0 = param.Number(0.0, bounds=(-1e6, 1e6), label="twin ẋ₀", doc="the twin's start velocity")
     # ----- a pinned run, compared with the live one ----------------------------------------------
-    pinned = Pin("", label="pinned run A",
-                 doc="the settings of run A, kept while the live run (B) changes ('key:value;…')")
+    pinned = param.String("", label="pinned run A",
+                          doc="run A's settings 'key:value;…', kept while the live run (B) changes")
     # ----- computed, never in the URL ----------------------------------------------------------
     result = param.Parameter(None, precedence=-1, doc="the last good Run")
     pinned_result = param.Parameter(None, precedence=-1, doc="the Run of ``pinned`` (A), or None")
@@ -295,10 +282,6 @@ URL_KEYS.update(inertia="J", radius="Rb", drag_torque="C", backlash_um="b_um", b
 RUN_KEYS = ("lam", "r", "j", "h2", "phi2", "phases", "harmonics", "v_stick", "noise", "periods",
             "transient",
             "x0", "v0", "t0", "strobe")
-#: What a pin holds: everything that decides a run (its model and its run settings).
-PIN_KEYS = RUN_KEYS
-#: Longest pin read, in characters (a pin of 32 harmonics is about 700).
-MAX_PIN = 1500
 #: Physical inputs that determine Λ, j, h₂, φ₂ while the units mode is on.
 PHYSICAL_KEYS = ("inertia", "radius", "drag_torque", "backlash_um", "rpm", "order", "excitation",
                  "amp1", "amp2", "phase2")
@@ -422,72 +405,3 @@ def preset_values(state: ExplorerState, label: str) -> dict[str, Any]:
         values["phi2"] = convert_phase(values["phi2"], 2)
     return values
 
-
-# ----- the pinned run ---------------------------------------------------------------------
-
-def pin_text(state: ExplorerState) -> str:
-    """The run ``state`` asks for as a pin: ``'lam:3.3;r:0.65;…'`` (every key of
-    :data:`PIN_KEYS`, floats as their shortest exact text, an empty start as nothing)."""
-    items = []
-    for name in PIN_KEYS:
-        value = getattr(state, name)
-        text = "" if value is None else (repr(value) if isinstance(value, float) else str(value))
-        items.append(f"{name}:{text}")
-    return ";".join(items)
-
-
-def _pin_value(name: str, text: str) -> Any:
-    """One pin item's text as the state's value of ``name`` (not yet checked for range)."""
-    p = ExplorerState.param[name]
-    if name == "x0" and text == "":
-        return None
-    if isinstance(p, param.Number):
-        try:
-            value = float(text)
-        except ValueError:
-            return text
-        return int(value) if isinstance(p, param.Integer) and value.is_integer() else value
-    return text
-
-
-def parse_pin(text: Any) -> dict[str, Any]:
-    """The state values a pin holds (:func:`pin_text`'s inverse), each checked as the state
-    checks it; keys left out take the state's defaults.
-
-    Raises ``ValueError`` naming the item at fault and, for a number, its allowed range.
-    """
-    if not isinstance(text, str):
-        raise ValueError(f"a pin must be text like 'lam:3.3;r:0.65', got {type(text).__name__}")
-    if len(text) > MAX_PIN:
-        raise ValueError(f"a pin of {len(text)} characters is longer than {MAX_PIN}")
-    values: dict[str, Any] = {}
-    for item in filter(None, (s.strip() for s in text.split(";"))):
-        name, sep, raw = item.partition(":")
-        if not sep:
-            raise ValueError(f"pin item {_show(item[:30])} must be 'key:value', e.g. 'lam:3.3'")
-        if name not in PIN_KEYS:
-            raise ValueError(f"pin key {_show(name[:20])} is unknown; allowed: {', '.join(PIN_KEYS)}")
-        if name in values:
-            raise ValueError(f"pin key {name!r} is given twice")
-        value = _pin_value(name, raw.strip())
-        try:
-            ExplorerState.param[name]._validate(value)
-        except ValueError as exc:
-            raise ValueError("pin: " + _refusal(name, value, exc)) from None
-        values[name] = value
-    if not values:
-        raise ValueError("a pin must hold at least one 'key:value' item, e.g. 'lam:3.3'")
-    return values
-
-
-def _refusal(name: str, value: Any, exc: Exception) -> str:
-    """Why a pin's value of ``name`` is refused: :func:`rejection`'s words, without 'Kept'."""
-    p = ExplorerState.param[name]
-    if isinstance(p, (param.Number, param.Selector)):
-        return rejection(ExplorerState, name, value).rsplit(" Kept ", 1)[0]
-    return f"{p.label or name}: {exc}"
-
-
-def pinned_state(text: str) -> ExplorerState:
-    """A state holding the pin's run settings (the rest default), to build its run from."""
-    return ExplorerState(**parse_pin(text))

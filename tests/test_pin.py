@@ -13,6 +13,7 @@ import pytest
 from panel.io.location import Location
 
 from app import state as st
+from app.pinning import PIN_KEYS, parse_pin, pin_text, pinned_state
 from app.session import Session
 from app.ui.labels import message_html
 from rattle_core import RattleParams, simulate
@@ -45,9 +46,9 @@ def test_pin_text_round_trips_every_run_setting():
     """A pin's text reads back as the very values it was made from (floats exactly)."""
     s = st.ExplorerState(lam=1.0 / 3.0, harmonics="3:0.1:30,5:0.05:-20", x0=1.25, periods=321,
                          phases="core", phi2=-135.0, strobe=12.5)
-    values = st.parse_pin(st.pin_text(s))
-    assert values == {k: getattr(s, k) for k in st.PIN_KEYS}
-    assert st.rattle_params(st.pinned_state(st.pin_text(s))) == st.rattle_params(s)
+    values = parse_pin(pin_text(s))
+    assert values == {k: getattr(s, k) for k in PIN_KEYS}
+    assert st.rattle_params(pinned_state(pin_text(s))) == st.rattle_params(s)
 
 
 @pytest.mark.parametrize("text, fragment", [
@@ -63,12 +64,16 @@ def test_pin_text_round_trips_every_run_setting():
     (";;", "at least one 'key:value' item"),
 ])
 def test_a_bad_pin_is_refused_naming_the_item_and_range(text, fragment):
-    """Each malformed or out-of-range pin is refused; the message names the item and range."""
+    """Each malformed or out-of-range pin is refused, by the parser and by a session (which keeps
+    its last pin); the message names the item and its range."""
     with pytest.raises(ValueError) as info:
-        st.parse_pin(text)
+        parse_pin(text)
     assert fragment in str(info.value)
-    with pytest.raises(ValueError):
-        st.ExplorerState(pinned=text)
+    s = Session().state
+    s.pinned = good = pin_text(s)
+    a = s.pinned_result
+    s.pinned = text
+    assert s.pinned == good and s.pinned_result is a and fragment in s.messages["pinned"]
 
 
 # ----- the session ------------------------------------------------------------------------------
@@ -79,19 +84,19 @@ def test_pin_keeps_the_run_and_a_change_of_lambda_makes_only_b_new():
     s = session.state
     s.param.update(**FIG4)
     runs, a = session.runs, s.result
-    s.pinned = st.pin_text(s)
+    s.pinned = pin_text(s)
     assert s.pinned_result is a and session.runs == runs  # pinning reuses the run on the page
     s.lam = 2.0
     assert s.result is not a and s.result.params.lam == 2.0
     assert s.pinned_result is a and s.pinned_result.params.lam == 3.3
-    assert st.parse_pin(s.pinned)["lam"] == 3.3
+    assert parse_pin(s.pinned)["lam"] == 3.3
 
 
 def test_unpin_clears_a():
     """Unpinned: no pinned text, no pinned run."""
     session = Session()
     s = session.state
-    s.pinned = st.pin_text(s)
+    s.pinned = pin_text(s)
     assert s.pinned_result is not None
     s.pinned = ""
     assert s.pinned_result is None and "pinned" not in s.messages
@@ -114,7 +119,7 @@ def test_a_pin_over_the_budget_is_refused_and_the_last_pin_stays():
     """A pin whose run is over the page's budget: a message beside the pin, the last pin kept."""
     session = Session()
     s = session.state
-    s.pinned = first = st.pin_text(s)
+    s.pinned = first = pin_text(s)
     a = s.pinned_result
     harm = ",".join(f"{k}:0.3:0" for k in range(3, 33))
     s.pinned = f"lam:0.05;periods:20000;transient:100000;harmonics:{harm}"
@@ -128,7 +133,7 @@ def test_the_pin_survives_the_url_round_trip():
     """A pinned link reopens A (run anew, the same as the core's run) beside the link's B."""
     session, loc = opened("?lam=3.3&h2=0.25&phi2=45")
     s = session.state
-    s.pinned = st.pin_text(s)
+    s.pinned = pin_text(s)
     s.phi2 = 90.0
     q = query(loc)
     assert q["pin"] == s.pinned and q["phi2"] == "90.0"
@@ -204,12 +209,12 @@ def test_the_diagram_marks_a_and_b_at_their_lambdas(dash):
     s.lam = 2.0
     dash.pin.pin()
     s.lam = 3.1
-    assert d.pinned_marker == 2.0 and d.marker == 3.1
-    span, label_a, label_b = d._pin_models()
+    assert d.pins.location == 2.0 and d.marker == 3.1
+    span, label_a, label_b = d.pins.models
     assert (label_a.text.strip(), label_b.text.strip()) == ("A", "B")
     assert label_a.visible and label_b.visible and (label_a.x, label_b.x) == (2.0, 3.1)
     dash.pin.unpin()
-    assert d.pinned_marker is None and not label_a.visible and not label_b.visible
+    assert d.pins.location is None and not label_a.visible and not label_b.visible
 
 
 def test_the_caption_is_text_and_says_how_to_pin():
@@ -220,4 +225,4 @@ def test_the_caption_is_text_and_says_how_to_pin():
     assert "Pin this run" in view.caption.object and view.unpin_button.disabled
     view.pin()
     assert "A: Λ = 3.3" in view.caption.object and not view.unpin_button.disabled
-    assert math.isclose(st.parse_pin(s.pinned)["lam"], 3.3)
+    assert math.isclose(parse_pin(s.pinned)["lam"], 3.3)

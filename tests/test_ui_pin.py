@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from playwright.sync_api import expect
 
-from app.state import parse_pin
+from app.pinning import parse_pin
 from test_ui import open_dashboard, wait_bif
 from test_ui_section import paper
 

@@ -13,12 +13,8 @@ diagram runs against engine speed and shows impulses in N·s.
 The current-value marker is the one hand-written Bokeh piece here: a ``Span`` added to the
 HoloViews figure, whose location each run sets. As a layer of the HoloViews overlay it cost a
 redraw of the whole overlay (about 30 ms of server CPU: range computation over the raster and
-option handling), a fifth of the slider budget, to move one line.
-
-With a pinned run (``state.pinned_result``, A), a second, dashed ``Span`` stands at A's value
-and both markers are named (``A``, ``B``) by Bokeh ``Label``s at the top of the frame. The
-diagram itself is B's: A's marker says where A's value is on B's axis. On the engine-speed
-axis, A's marker is drawn only when A has a physical side.
+option handling), a fifth of the slider budget, to move one line. A pinned run's value (A)
+gets a dashed line beside it, both named A and B (:class:`app.ui.plots.PinMarkers`).
 """
 from __future__ import annotations
 
@@ -31,7 +27,7 @@ import numpy as np
 import pandas as pd
 import panel as pn
 import param
-from bokeh.models import Label, Node, Span, WheelZoomTool
+from bokeh.models import Span, WheelZoomTool
 from holoviews.operation.datashader import datashade, dynspread
 
 from ..work import tasks
@@ -39,9 +35,9 @@ from ..work.diagram_data import (RECORD, TRANSIENT, ZOOM_VALUES, Diagram, curren
                                  diagram_key, from_work, marks, one_sided, request, run_value,
                                  shipped)
 from .continuation import branch_overlay
-from ..ui.labels import (ACTIVE_COLOR, CHAOS_COLOR, MARK_COLOR, ONSET_COLOR, PIN_COLOR,
-                         REVERSE_COLOR, num)
-from ..ui.plots import TOOLS, HoloViewsPane, Zoom, caption, file_stem, padded, save_as, weak_hook
+from ..ui.labels import ACTIVE_COLOR, CHAOS_COLOR, MARK_COLOR, ONSET_COLOR, REVERSE_COLOR, num
+from ..ui.plots import (TOOLS, HoloViewsPane, PinMarkers, Zoom, caption, file_stem, padded,
+                        save_as, weak_hook)
 from ..state import ExplorerState
 from ..work.threads import later
 from ..ui.widgets import Choice, deferred, message, set_value
@@ -84,8 +80,7 @@ class DiagramView(pn.viewable.Viewer):
         self.branch = hv.DynamicMap(self._branch, streams=[
             hv.streams.Params(self.state, ["branch"]), hv.streams.Params(self, ["marks_revision"])])
         self._span: Any = lambda: None
-        #: A's marker and the two markers' names (weakly held, like the current-value marker).
-        self._pin_models: Any = lambda: None
+        self.pins = PinMarkers()
         self.tap = hv.streams.Tap(source=self.points)
         self.tap.add_subscriber(self._on_tap)
         s = self.state
@@ -247,35 +242,12 @@ class DiagramView(pn.viewable.Viewer):
         span = self._span()
         if span is not None:
             span.location = self._marker_at()
-        models = self._pin_models()
-        if models is not None:
-            self._place_pin(*models)
-
-    @property
-    def pinned_marker(self) -> float | None:
-        """Where A's marker stands on the page (None while it is not shown)."""
-        models = self._pin_models()
-        return None if models is None or not models[0].visible else models[0].location
+        self.pins.place(self._pinned_at(), self._marker_at())
 
     def _pinned_at(self) -> float | None:
+        """A's value on this diagram's axis (None without a pin, or A without rpm)."""
         a = self.state.pinned_result
         return None if a is None else run_value(self._name, a, self.state.phases)
-
-    def _place_pin(self, span: Span, label_a: Label, label_b: Label) -> None:
-        """A's marker at A's value and the names A and B, shown only with a pin."""
-        at, b = self._pinned_at(), self._marker_at()
-        shown = at is not None
-        # the names stand on either side of the markers, so they do not cover each other when
-        # A and B are at the same value
-        left = shown and at <= b
-        updates = ((span, dict(visible=shown, location=at if shown else b)),
-                   (label_a, dict(visible=shown, x=at if shown else b,
-                                  anchor="top_right" if left else "top_left")),
-                   (label_b, dict(visible=shown, x=b, anchor="top_left" if left else "top_right")))
-        for model, values in updates:
-            changed = {k: v for k, v in values.items() if getattr(model, k) != v}
-            if changed:
-                model.update(**changed)
 
     def _marks(self, overlays: bool = True, marks_revision: int = 0) -> hv.Overlay:
         """Where rattle starts and chaos first appears (labelled), and the 2πn/Λ curves."""
@@ -315,21 +287,7 @@ class DiagramView(pn.viewable.Viewer):
                         line_width=2, name="current_value")
             plot.state.add_layout(span)
             self._span = weakref.ref(span)
-        models = self._pin_models()
-        if models is None or models[0] not in plot.state.center:
-            top = Node(target="frame", symbol="top", offset=4)
-            models = (Span(location=self._marker_at(), dimension="height", line_color=PIN_COLOR,
-                           line_width=2, line_dash="dashed", name="pinned_value", visible=False),
-                      Label(x=self._marker_at(), y=top, text=" A ", text_color=PIN_COLOR,
-                            text_font_size="10pt", text_font_style="bold", name="pinned_label",
-                            visible=False),
-                      Label(x=self._marker_at(), y=top, text=" B ", text_color=MARK_COLOR,
-                            text_font_size="10pt", text_font_style="bold", name="current_label",
-                            visible=False))
-            for model in models:
-                plot.state.add_layout(model)
-            self._pin_models = _weak_tuple(models)
-        self._place_pin(*models)  # the axis may have changed (Λ, φ₂, rpm) since the last run
+        self.pins.attach(plot.state, self._pinned_at(), self._marker_at())
         if plot.state.title.text != self._title:
             plot.state.title.text = self._title
             plot.state.title.text_font_size = "9pt"
@@ -397,17 +355,6 @@ class DiagramView(pn.viewable.Viewer):
         elif not event.new and s.bif == "rpm":
             s.bif = "lam"
         self.choice.widget.options = UNITS_OPTIONS if event.new else OPTIONS
-
-
-def _weak_tuple(models: tuple) -> Any:
-    """A callable giving ``models`` back while they all live, else None (a closed page's plot
-    must not be kept by the view)."""
-    refs = [weakref.ref(m) for m in models]
-
-    def get() -> tuple | None:
-        out = tuple(r() for r in refs)
-        return None if any(m is None for m in out) else out
-    return get
 
 
 def _text(text: str) -> str:

@@ -14,7 +14,8 @@ from typing import Any
 import panel as pn
 import param
 
-from ..state import ExplorerState, pin_text
+from ..pinning import pin_text
+from ..state import ExplorerState
 from ..ui.labels import PIN_COLOR
 from ..ui.plots import run_label
 from ..ui.widgets import message
