@@ -167,6 +167,18 @@ def test_a_bad_pin_in_the_url_is_refused_with_a_message(pin, fragment):
     assert "<script>" not in shown and "<b>" not in shown
 
 
+@pytest.mark.parametrize("value", ["NaN", "-Infinity", "9" * 5000, "[" * 3000, "[" * 50 + "]" * 50,
+                                   "a" * 3000, "lam:" + "1" * 5000])
+def test_a_hostile_pin_in_the_url_draws_the_page_and_says_so(value):
+    """Hostile pins (digits Python will not convert, nesting, long text): B is drawn, no A, and
+    a short message beside the pin names the URL."""
+    session, loc = opened("?" + urllib.parse.urlencode({"pin": value}))
+    s = session.state
+    assert s.result is not None and s.pinned == "" and s.pinned_result is None
+    assert "URL" in s.messages["pinned"] and len(s.messages["pinned"]) < 400
+    assert query(loc).get("pin", "") == ""
+
+
 # ----- the views --------------------------------------------------------------------------------
 
 def test_the_overlays_draw_a_as_the_core_runs_it(dash):
