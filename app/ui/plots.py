@@ -314,8 +314,8 @@ def first_periods(tr, periods: int):
 
 
 class PinMarkers:
-    """A dashed vertical line at the pinned run's value (A) and the names A and B above it and
-    the live run's marker, hand-written Bokeh models on a figure (held weakly, so a closed
+    """A dashed vertical line at the pinned run's value (A) and the names A and B at the foot of
+    it and of the live run's marker, hand-written Bokeh models on a figure (held weakly, so a closed
     page's figure is not kept). Hidden while there is no pin."""
 
     def __init__(self) -> None:
@@ -337,8 +337,10 @@ class PinMarkers:
         from bokeh.models import Label, Node, Span
         models = self._models()
         if models is None or models[0] not in fig.center:
-            top = Node(target="frame", symbol="top", offset=4)
-            label = dict(y=top, x=b, text_font_size="10pt", text_font_style="bold", visible=False)
+            # at the frame's foot: a legend stands at its head
+            foot = Node(target="frame", symbol="bottom", offset=-4)
+            label = dict(y=foot, x=b, text_font_size="10pt", text_font_style="bold", visible=False,
+                         background_fill_color="white", background_fill_alpha=0.8)
             models = [Span(location=b, dimension="height", line_color=PIN_COLOR, line_width=2,
                            line_dash="dashed", name="pinned_value", visible=False),
                       Label(text=" A ", text_color=PIN_COLOR, name="pinned_label", **label),
@@ -361,8 +363,9 @@ class PinMarkers:
         left = shown and a <= b
         updates = ((span, dict(visible=shown, location=a if shown else b)),
                    (label_a, dict(visible=shown, x=a if shown else b,
-                                  anchor="top_right" if left else "top_left")),
-                   (label_b, dict(visible=shown, x=b, anchor="top_left" if left else "top_right")))
+                                  anchor="bottom_right" if left else "bottom_left")),
+                   (label_b, dict(visible=shown, x=b,
+                                  anchor="bottom_left" if left else "bottom_right")))
         for model, values in updates:
             changed = {k: v for k, v in values.items() if getattr(model, k) != v}
             if changed:
