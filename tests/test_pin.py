@@ -127,6 +127,23 @@ def test_a_pin_over_the_budget_is_refused_and_the_last_pin_stays():
     assert "Run A cannot be pinned" in s.messages["pinned"] and "budget" in s.messages["pinned"]
 
 
+def test_a_heavy_pin_runs_in_a_worker_beside_a_heavy_live_run(job_pool):
+    """A pin over the inline limit runs in a worker as its own job: a heavy change of B at the
+    same time cancels neither; each is published where it belongs."""
+    from conftest import wait_for
+    session = Session(pool=job_pool)
+    s = session.state
+    harm = ",".join(f"{k}:0.01:0" for k in range(3, 11))
+    s.pinned = f"lam:2.5;periods:20000;transient:100000;harmonics:{harm}"
+    assert s.pinned_result is None and session.pinner.page.pending is not None
+    s.param.update(lam=3.0, periods=20000, transient=100000, harmonics=harm)
+    assert session.page.pending is not None and session.pinner.page.pending is not None
+    wait_for(lambda: s.pinned_result is not None and s.result.params.lam == 3.0, 120, "both runs")
+    assert s.pinned_result.params.lam == 2.5 and s.pinned_result.tr.settings["periods"] == 20000
+    assert s.result.tr.settings["periods"] == 20000 and "pinned" not in s.messages
+    session.destroy()
+
+
 # ----- the URL ----------------------------------------------------------------------------------
 
 def test_the_pin_survives_the_url_round_trip():
