@@ -16,11 +16,9 @@ import param
 
 from ..pinning import pin_text
 from ..state import ExplorerState
-from ..ui.labels import PIN_COLOR
+from ..ui.labels import GEAR_COLOR, PIN_COLOR
 from ..ui.plots import run_label
 from ..ui.widgets import message
-
-B_COLOR = "#222222"
 
 
 class PinView(pn.viewable.Viewer):
@@ -74,7 +72,7 @@ class PinView(pn.viewable.Viewer):
             self.caption.object = _line(lines[0], "#555555", "pin-none")
             return
         self.caption.object = (_line(lines[0], PIN_COLOR, "pin-a", dashed=True)
-                               + _line(lines[1], B_COLOR, "pin-b"))
+                               + _line(lines[1], GEAR_COLOR, "pin-b"))
 
 
 def _line(text: str, color: str, css: str, dashed: bool = False) -> str:
