@@ -22,6 +22,7 @@ from .views.gearbox import GearboxView
 from .views.maps import MapsView
 from .views.motion import MotionView
 from .views.noise import NoiseView
+from .views.pin import PinView
 from .work.threads import HV_LOCK
 from .session import Session
 from .views.sensitivity import SensitivityView
@@ -50,6 +51,7 @@ class Dashboard:
         self.controls = Controls(state=s)
         self.units = UnitsView(state=s)
         self.regime = RegimeView(state=s)
+        self.pin = PinView(state=s)
         self.noise = NoiseView(state=s, jobs=jobs)
         self.time_history = TimeHistoryView(state=s)
         self.section = SectionView(state=s)
@@ -62,12 +64,13 @@ class Dashboard:
         self.maps = MapsView(state=s, jobs=jobs)
         self.atlas = AtlasView(state=s, jobs=jobs, maps=self.maps)
         self.gearbox = GearboxView(state=s, jobs=jobs)
-        self.views = [self.controls, self.units, self.regime, self.noise, self.time_history,
+        self.views = [self.controls, self.units, self.regime, self.pin, self.noise,
+                      self.time_history,
                       self.section, self.motion,
                       self.diagram, self.continuation, self.curve, self.sound, self.maps,
                       self.atlas, self.gearbox, self.sensitivity]
         explorer = pn.Column(
-            self.regime, self.noise,
+            self.regime, self.pin, self.noise,
             self.time_history, self.units.table,
             self.motion,
             pn.Row(self.section, pn.Column(self.diagram, self.continuation, self.curve,

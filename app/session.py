@@ -14,6 +14,8 @@ The URL is ``pn.state.location.sync`` of the state. A key whose value param refu
 message beside its control and the URL shows the value kept; unknown keys and empty values
 get a message too. The messages are plain text (the views escape them).
 
+A pinned run (``state.pinned``, A) is run by :class:`app.pinning.Pinner`.
+
 Background work goes through :class:`SessionJobs`: the server's job pool
 (:mod:`app.work.jobs`), with results moved onto this session's document. :meth:`Session.destroy`
 cancels the jobs and lets go of everything, so a closed session is garbage.
@@ -33,6 +35,7 @@ import param
 from rattle_core import SolverError
 
 from .work import jobs as jobs_module
+from .pinning import Pinner, drop_bad_pin
 from .state import (PHYSICAL_KEYS, RUN_KEYS, URL_KEYS, ExplorerState, Run, rattle_params,
                              rejection)
 from .physical import LinkError, link, run_physical
@@ -137,6 +140,9 @@ class Session:
         self.state = ExplorerState()
         self.jobs = SessionJobs(self.key, doc, pool)
         self.page = PageRun(self.jobs)
+        #: ``(params, run kwargs)`` of ``state.result``: a pin of the same run reuses it.
+        self._request: tuple | None = None
+        self.pinner = Pinner(self.state, self.jobs, lambda: self._request)
         self.location = location
         self.last_ms = math.nan
         #: How many simulations this session has run (one per accepted change).
@@ -214,8 +220,8 @@ class Session:
         s = self.state
         before = dict(self._good)
         try:
-            params = rattle_params(s)
-            out = self.page.run(params, run_kwargs(s), lambda o: self._ran(params, *o),
+            params, kwargs = rattle_params(s), run_kwargs(s)
+            out = self.page.run(params, kwargs, lambda o: self._ran(params, *o, request=kwargs),
                                 lambda message: self._failed(before, message))
         except (ValueError, SolverError) as exc:
             field = field_of_error(str(exc)) if isinstance(exc, ValueError) else None
@@ -223,14 +229,15 @@ class Session:
             s.say(where, f"{exc}. Showing the last good view.")
             return where
         if out is not None:
-            self._ran(params, *out)
+            self._ran(params, *out, request=kwargs)
         return None
 
-    def _ran(self, params: Any, tr: Any, cls: Any, ms: float) -> None:
+    def _ran(self, params: Any, tr: Any, cls: Any, ms: float, request: dict | None = None) -> None:
         """Publish a run: every view draws from ``state.result``."""
         s = self.state
         self.runs += 1
         self.last_ms = ms
+        self._request = (params, request)
         s.result = Run(params=params, tr=tr, cls=cls, phys=run_physical(s, params), phases=s.phases,
                        ms=ms)
         if s.messages.get("global") == RUNNING:
@@ -275,8 +282,9 @@ class Session:
                 location.update_query(**{URL_KEYS[n]: _serialize(s, n) for n in rejected})
 
         clean, unreadable = readable(location.search)
-        if unreadable:  # before Panel reads the link: such a value would fail the whole page
-            location.search = clean
+        pinless = drop_bad_pin(clean, s)
+        if unreadable or pinless != clean:  # before Panel reads the link: such a value would fail the whole page
+            location.search = pinless
         link = location.search
         self._check_query(link)
         for key, why in unreadable.items():
@@ -363,6 +371,7 @@ class Session:
     def destroy(self) -> None:
         """The session closed: cancel its jobs and drop every reference to its results."""
         self.jobs.close()
+        self.pinner.close()
         try:
             self.state.param.unwatch(self._watcher)
         except Exception:
@@ -377,6 +386,7 @@ class Session:
             self.location = None
         with param.parameterized.discard_events(self.state):  # no view redraws a closed page
             self.state.result = None
+            self.state.pinned_result = None
 
 
 def _serialize(state: ExplorerState, name: str) -> str:

@@ -14,6 +14,7 @@ Phases are stored in the convention the page shows (``phases``): the paper's
 user switches, so the model does not change; :func:`rattle_params` converts to the core.
 
 The URL keys are the parameter names (physical inputs have short keys, :data:`URL_KEYS`).
+A pinned run (``pinned``, URL key ``pin``) is checked and run by :mod:`app.pinning`.
 """
 from __future__ import annotations
 
@@ -210,8 +211,12 @@ class ExplorerState(Said):
     twin_x0 = OptionalNumber(None, allow_None=True, bounds=(-1e6, 1e6), label="twin x₀",
                              doc="the twin's clicked start (empty: the first gear's, nudged)")
     twin_v0 = param.Number(0.0, bounds=(-1e6, 1e6), label="twin ẋ₀", doc="the twin's start velocity")
+    # ----- a pinned run, compared with the live one ----------------------------------------------
+    pinned = param.String("", label="pinned run A",
+                          doc="run A's settings 'key:value;…', kept while the live run (B) changes")
     # ----- computed, never in the URL ----------------------------------------------------------
     result = param.Parameter(None, precedence=-1, doc="the last good Run")
+    pinned_result = param.Parameter(None, precedence=-1, doc="the Run of ``pinned`` (A), or None")
     branch = param.Parameter(None, precedence=-1, doc="the continued branch shown (app.branch.Branch)")
 
     def set_phase_convention(self, convention: str) -> None:
@@ -267,11 +272,12 @@ class GearboxSettings(Said):
 
 
 #: State parameters → URL query keys.
-URL_KEYS = {n: n for n in ExplorerState.param if n not in ("name", "result", "messages", "branch")}
+URL_KEYS = {n: n for n in ExplorerState.param
+            if n not in ("name", "result", "messages", "branch", "pinned_result")}
 URL_KEYS.update(inertia="J", radius="Rb", drag_torque="C", backlash_um="b_um", backlash_unit="b_unit",
                 excitation="exc", amp1="a1", amp2="a2", phase2="p2", solve_for="solve",
                 continuation="cont", curve_kind="curve", curve_at="curve_at",
-                curve_param2="curve_in")
+                curve_param2="curve_in", pinned="pin")
 #: Parameters that change the trajectory.
 RUN_KEYS = ("lam", "r", "j", "h2", "phi2", "phases", "harmonics", "v_stick", "noise", "periods",
             "transient",
@@ -398,3 +404,4 @@ def preset_values(state: ExplorerState, label: str) -> dict[str, Any]:
         values["phases"] = "core"
         values["phi2"] = convert_phase(values["phi2"], 2)
     return values
+

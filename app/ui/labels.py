@@ -26,6 +26,8 @@ STICK_COLOR = "#f39c12"
 TOOTH_COLOR = "#9aa5b1"
 GEAR_COLOR = "#222222"
 MARK_COLOR = "#2ca02c"
+#: The pinned run (A), drawn beside the live one (B): muted, so B stays the one in front.
+PIN_COLOR = "#8c6bb1"
 ONSET_COLOR = "#8e44ad"
 CHAOS_COLOR = "#d35400"
 #: Flank code → (colour, label), for impacts in every view.

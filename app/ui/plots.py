@@ -4,6 +4,7 @@
   physical units when asked);
 * :func:`caption` and :func:`file_stem` name a run's parameters, for plot titles (which are
   part of every saved PNG) and for the save tool's file name (:func:`save_as`);
+* :class:`PinMarkers` marks a pinned run (A) and the live run (B) on a figure's x axis;
 * :class:`Zoom` keeps a plot on its data until the user zooms or pans, then keeps the
   user's view across redraws until the reset tool is pressed (HoloViews ``RangeXY`` and
   ``PlotReset`` streams; Bokeh reports only the user's range changes as ``rangesupdate``).
@@ -21,7 +22,7 @@ import panel as pn
 
 from ..core import TWO_PI
 from ..state import display_phases
-from .labels import num
+from .labels import MARK_COLOR, PIN_COLOR, num
 from ..work.threads import HV_LOCK, later
 
 #: Samples per forcing period of the time history (impact instants are added exactly).
@@ -44,6 +45,23 @@ def caption(run: Any) -> str:
         ph = run.phys
         parts.append(f"{num(ph.rpm, 6)} rpm, C = {num(ph.drag_torque, 4)} N·m")
     return " · ".join(parts)
+
+
+def run_label(letter: str, run: Any, phases: str) -> str:
+    """One run named for a comparison: ``'A: Λ = 3.3, r = 0.65, j = 8, H₂/H₁ = 0.25,
+    φ₂ = 45° (chaotic)'`` (phases in the page's convention ``phases``; plain text)."""
+    p = run.params
+    shown = display_phases(p, phases)
+    parts = [f"Λ = {num(p.lam, 6)}", f"r = {num(p.r, 4)}", f"j = {num(p.j, 5)}"]
+    if p.n_harmonics > 1:
+        parts.append(f"H₂/H₁ = {num(p.amplitudes[1], 4)}, φ₂ = {num(shown[1], 5)}°")
+    extra = sum(1 for a in p.amplitudes[2:] if a != 0.0)
+    if extra:
+        parts.append(f"+{extra} harmonic{'s' if extra > 1 else ''}")
+    cls = run.cls
+    what = ("chaotic" if cls.chaotic else f"period {cls.period}" if cls.period
+            else "no period ≤ 32")
+    return f"{letter}: {', '.join(parts)} ({what}, regime {cls.regime})"
 
 
 def file_stem(run: Any, what: str) -> str:
@@ -293,3 +311,62 @@ def first_periods(tr, periods: int):
         impact_w=tr.impact_w[imp], strobe_t=tr.strobe_t[strobe], strobe_x=tr.strobe_x[strobe],
         strobe_v=tr.strobe_v[strobe], seg_t=tr.seg_t[seg], seg_kind=tr.seg_kind[seg],
         seg_x=tr.seg_x[seg], seg_v=tr.seg_v[seg])
+
+
+class PinMarkers:
+    """A dashed vertical line at the pinned run's value (A) and the names A and B at the foot of
+    it and of the live run's marker, hand-written Bokeh models on a figure (held weakly, so a closed
+    page's figure is not kept). Hidden while there is no pin."""
+
+    def __init__(self) -> None:
+        self._models: Callable[[], list | None] = lambda: None
+
+    @property
+    def location(self) -> float | None:
+        """Where A's line stands (None while it is hidden or not drawn)."""
+        models = self._models()
+        return None if models is None or not models[0].visible else models[0].location
+
+    @property
+    def models(self) -> list | None:
+        """A's line and the labels A and B, once on a figure."""
+        return self._models()
+
+    def attach(self, fig: Any, a: float | None, b: float) -> None:
+        """Put the models on ``fig`` (once per figure) and place them."""
+        from bokeh.models import Label, Node, Span
+        models = self._models()
+        if models is None or models[0] not in fig.center:
+            # at the frame's foot: a legend stands at its head
+            foot = Node(target="frame", symbol="bottom", offset=-4)
+            label = dict(y=foot, x=b, text_font_size="10pt", text_font_style="bold", visible=False,
+                         background_fill_color="white", background_fill_alpha=0.8)
+            models = [Span(location=b, dimension="height", line_color=PIN_COLOR, line_width=2,
+                           line_dash="dashed", name="pinned_value", visible=False),
+                      Label(text=" A ", text_color=PIN_COLOR, name="pinned_label", **label),
+                      Label(text=" B ", text_color=MARK_COLOR, name="current_label", **label)]
+            for model in models:
+                fig.add_layout(model)
+            refs = [weakref.ref(m) for m in models]
+            self._models = lambda: (None if any(r() is None for r in refs) else [r() for r in refs])
+        self.place(a, b)
+
+    def place(self, a: float | None, b: float) -> None:
+        """A's line at ``a`` (hidden when None) and the names at ``a`` and ``b``."""
+        models = self._models()
+        if models is None:
+            return
+        span, label_a, label_b = models
+        shown = a is not None
+        # the names stand on either side of the lines, so that they do not cover each other
+        # when A and B are at the same value
+        left = shown and a <= b
+        updates = ((span, dict(visible=shown, location=a if shown else b)),
+                   (label_a, dict(visible=shown, x=a if shown else b,
+                                  anchor="bottom_right" if left else "bottom_left")),
+                   (label_b, dict(visible=shown, x=b,
+                                  anchor="bottom_left" if left else "bottom_right")))
+        for model, values in updates:
+            changed = {k: v for k, v in values.items() if getattr(model, k) != v}
+            if changed:
+                model.update(**changed)

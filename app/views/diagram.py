@@ -13,7 +13,8 @@ diagram runs against engine speed and shows impulses in N·s.
 The current-value marker is the one hand-written Bokeh piece here: a ``Span`` added to the
 HoloViews figure, whose location each run sets. As a layer of the HoloViews overlay it cost a
 redraw of the whole overlay (about 30 ms of server CPU: range computation over the raster and
-option handling), a fifth of the slider budget, to move one line.
+option handling), a fifth of the slider budget, to move one line. A pinned run's value (A)
+gets a dashed line beside it, both named A and B (:class:`app.ui.plots.PinMarkers`).
 """
 from __future__ import annotations
 
@@ -31,10 +32,12 @@ from holoviews.operation.datashader import datashade, dynspread
 
 from ..work import tasks
 from ..work.diagram_data import (RECORD, TRANSIENT, ZOOM_VALUES, Diagram, current_value,
-                                 diagram_key, from_work, marks, one_sided, request, shipped)
+                                 diagram_key, from_work, marks, one_sided, request, run_value,
+                                 shipped)
 from .continuation import branch_overlay
 from ..ui.labels import ACTIVE_COLOR, CHAOS_COLOR, MARK_COLOR, ONSET_COLOR, REVERSE_COLOR, num
-from ..ui.plots import TOOLS, HoloViewsPane, Zoom, caption, file_stem, padded, save_as, weak_hook
+from ..ui.plots import (TOOLS, HoloViewsPane, PinMarkers, Zoom, caption, file_stem, padded,
+                        save_as, weak_hook)
 from ..state import ExplorerState
 from ..work.threads import later
 from ..ui.widgets import Choice, deferred, message, set_value
@@ -77,6 +80,7 @@ class DiagramView(pn.viewable.Viewer):
         self.branch = hv.DynamicMap(self._branch, streams=[
             hv.streams.Params(self.state, ["branch"]), hv.streams.Params(self, ["marks_revision"])])
         self._span: Any = lambda: None
+        self.pins = PinMarkers()
         self.tap = hv.streams.Tap(source=self.points)
         self.tap.add_subscriber(self._on_tap)
         s = self.state
@@ -93,7 +97,7 @@ class DiagramView(pn.viewable.Viewer):
         self.pane = HoloViewsPane(plot, sizing_mode="stretch_width", min_height=380,
                                       css_classes=["diagram"], linked_axes=False)
         s.param.watch(self._update, ["result", "bif", "phases"])
-        s.param.watch(self._move_marker, "result")
+        s.param.watch(self._move_marker, ["result", "pinned_result"])
         s.param.watch(self._on_units, "units")
         if s.units and s.bif == "lam":  # in physical units Λ runs as engine speed
             s.bif = "rpm"
@@ -238,6 +242,12 @@ class DiagramView(pn.viewable.Viewer):
         span = self._span()
         if span is not None:
             span.location = self._marker_at()
+        self.pins.place(self._pinned_at(), self._marker_at())
+
+    def _pinned_at(self) -> float | None:
+        """A's value on this diagram's axis (None without a pin, or A without rpm)."""
+        a = self.state.pinned_result
+        return None if a is None else run_value(self._name, a, self.state.phases)
 
     def _marks(self, overlays: bool = True, marks_revision: int = 0) -> hv.Overlay:
         """Where rattle starts and chaos first appears (labelled), and the 2πn/Λ curves."""
@@ -277,6 +287,7 @@ class DiagramView(pn.viewable.Viewer):
                         line_width=2, name="current_value")
             plot.state.add_layout(span)
             self._span = weakref.ref(span)
+        self.pins.attach(plot.state, self._pinned_at(), self._marker_at())
         if plot.state.title.text != self._title:
             plot.state.title.text = self._title
             plot.state.title.text_font_size = "9pt"

@@ -7,7 +7,8 @@ structure from one run to the next, so an update replaces glyph data and nothing
 section's dense clouds are rasterised and spread with datashader (HoloViews ``datashade``
 and ``dynspread``) over the range shown, which follows the data until the user zooms
 (:class:`app.ui.plots.Zoom`); a zoom re-rasterises at the new range. The time history is in
-:mod:`app.views.time_history`.
+:mod:`app.views.time_history`. A pinned run (``state.pinned_result``, A) has its section
+drawn beside the live run's (B), in its own colour and marker, and the legend names both.
 """
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ import param
 from holoviews.operation.datashader import datashade, dynspread
 
 from ..core import batch_means, excitation
-from ..ui.labels import MARK_COLOR, badge_html, metrics_rows, table_html
+from ..ui.labels import MARK_COLOR, PIN_COLOR, badge_html, metrics_rows, table_html
 from ..ui.plots import (TOOLS, HoloViewsPane, Zoom, caption, file_stem, padded, save_as,
                     section_points, weak_hook)
 from ..state import ExplorerState
@@ -33,6 +34,8 @@ SECTION_OPTIONS = {"Poincaré (x, ẋ)": "absolute", "relative (x−y, ẋ−ẏ
 SECTION_PIXELS = (480, 320)
 #: Above this many points the section is rasterised instead of drawn as glyphs.
 DENSE = 5000
+#: Legend entries of the live run's and the pinned run's points.
+LIVE_LABEL, PINNED_LABEL = "B (live)", "A (pinned)"
 
 
 class SectionView(pn.viewable.Viewer):
@@ -50,6 +53,7 @@ class SectionView(pn.viewable.Viewer):
     def __init__(self, **params: Any):
         super().__init__(**params)
         self._xy = (np.zeros(0), np.zeros(0))
+        self._pinned_xy = (np.zeros(0), np.zeros(0))
         self._dense: tuple[np.ndarray, np.ndarray] | None = None
         self._kdims = [hv.Dimension("x"), hv.Dimension("y", label="ẋ")]
         self._lims = ((-1.0, 1.0), (-1.0, 1.0))
@@ -72,7 +76,7 @@ class SectionView(pn.viewable.Viewer):
         self.msg = message(self.state, "start")
         self.pane = HoloViewsPane(plot, sizing_mode="stretch_width", min_height=380,
                                       css_classes=["section"], linked_axes=False)
-        self.state.param.watch(self._update, ["result", "section"])
+        self.state.param.watch(self._update, ["result", "section", "pinned_result"])
         self._update()
 
     def __panel__(self):
@@ -91,7 +95,9 @@ class SectionView(pn.viewable.Viewer):
         section = self.state.section
         x, y, xl, yl = section_points(run.tr, section)
         self._kdims = [hv.Dimension("x", label=xl), hv.Dimension("y", label=yl)]
-        self._lims = (padded(x), padded(y))
+        self._pinned_xy = self.pinned_points(section)
+        ax, ay = self._pinned_xy
+        self._lims = (padded(np.concatenate([x, ax])), padded(np.concatenate([y, ay])))
         self.zoom.user = False  # a new run frames its data; a zoom holds only while it stays
         theta = f"θ = {self.state.strobe:g}°"
         title = {"absolute": f"Poincaré map (x, ẋ) at {theta}",
@@ -106,6 +112,15 @@ class SectionView(pn.viewable.Viewer):
         self._xy = (np.zeros(0), np.zeros(0)) if dense else (x, y)
         self.revision += 1
 
+    def pinned_points(self, section: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """A's section points as drawn: its last :data:`DENSE` points (glyphs, not a raster, so
+        they stay a legend entry of their own), none without a pin."""
+        a = self.state.pinned_result
+        if a is None:
+            return np.zeros(0), np.zeros(0)
+        x, y, _, _ = section_points(a.tr, section or self.state.section)
+        return np.asarray(x)[-DENSE:], np.asarray(y)[-DENSE:]
+
     def _redraw(self) -> None:
         self.revision += 1
         self.dense_revision += 1
@@ -116,8 +131,11 @@ class SectionView(pn.viewable.Viewer):
         point = None if run is None else self._start_point(run, s.section, s.x0, s.v0, s.t0)
         marker = hv.Points([point] if point else [], self._kdims).opts(
             marker="x", size=14, line_width=3, color=MARK_COLOR)
-        cloud = hv.Points(self._xy, self._kdims).opts(size=4, color="#1f5fa8", alpha=0.8)
-        return self.zoom.apply(cloud * marker, *self._lims)
+        cloud = hv.Points(self._xy, self._kdims, label=LIVE_LABEL).opts(
+            size=4, color="#1f5fa8", alpha=0.8)
+        pinned = hv.Points(self._pinned_xy, self._kdims, label=PINNED_LABEL).opts(
+            marker="triangle", size=6, color=PIN_COLOR, alpha=0.75)
+        return self.zoom.apply(pinned * cloud * marker, *self._lims)
 
     def _raster(self, dense_revision: int = 0, x_range: Any = None, y_range: Any = None) -> hv.RGB:
         xr, yr = self._lims
@@ -134,6 +152,10 @@ class SectionView(pn.viewable.Viewer):
     def _name_plot(self, plot: Any, element: Any) -> None:
         """Title (the parameters, so a saved PNG carries them) and the save tool's file name."""
         plot.state.name = "section"
+        shown = self.state.pinned_result is not None  # the legend names A and B, with a pin only
+        for legend in plot.state.legend:
+            if legend.visible != shown:
+                legend.visible = shown
         if not self.zoom.user:
             # HoloViews keeps an overlay's first ranges when its layers' limits change
             # (and Bokeh's reset tool returns to the ranges a figure was built with)

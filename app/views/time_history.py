@@ -17,6 +17,10 @@ change) or the units change, the old window means nothing and the plot frames th
 are ms and µm (or degrees of the idle gear). The title holds the parameters, so a saved PNG
 carries them, and the save tool's file name does too. Each flank's impacts are a legend
 entry of their own, in their own colour.
+
+A pinned run (``state.pinned_result``, A) is drawn as its gear's trace alone, dashed in a
+muted colour, over the live run (B); the legend then names the two gears A and B. In physical
+units A is drawn only when it has a physical side of its own (a run pinned in that mode).
 """
 from __future__ import annotations
 
@@ -25,25 +29,30 @@ from typing import Any
 import numpy as np
 import panel as pn
 import param
+from bokeh.core.properties import value
 from bokeh.models import (ColumnDataSource, DataRange1d, HoverTool, Legend, LegendItem, SaveTool,
                           Span)
 from bokeh.plotting import figure
 
 from ..state import ExplorerState
-from ..ui.labels import (ACTIVE_COLOR, GEAR_COLOR, MARK_COLOR, REVERSE_COLOR, STICK_COLOR,
-                         TOOTH_COLOR)
+from ..ui.labels import (ACTIVE_COLOR, GEAR_COLOR, MARK_COLOR, PIN_COLOR, REVERSE_COLOR,
+                         STICK_COLOR, TOOTH_COLOR)
 from ..ui.plots import caption, file_stem, full_screen, name_saved_png, time_history_data
 
 MOTION = ("t", "x", "y", "yj", "tooth_lo", "tooth_hi")
 IMPACTS = ("t", "x", "impulse")
+#: The gear's legend entry, alone and beside a pinned run; and the pinned run's.
+GEAR_LABEL, GEAR_LABEL_B, PINNED_LABEL = "gear x(t)", "B (live): gear x(t)", "A (pinned): gear x(t)"
 
 
 def time_history_figure() -> tuple[Any, dict[str, ColumnDataSource]]:
-    """The figure and its data sources (``motion``, ``active``, ``reverse``, ``stick``)."""
+    """The figure and its data sources (``motion``, ``active``, ``reverse``, ``stick``,
+    ``pinned``)."""
     src = {"motion": ColumnDataSource({k: [] for k in MOTION}, name="th_motion"),
            "active": ColumnDataSource({k: [] for k in IMPACTS}, name="th_active"),
            "reverse": ColumnDataSource({k: [] for k in IMPACTS}, name="th_reverse"),
-           "stick": ColumnDataSource({"xs": [], "ys": []}, name="th_stick")}
+           "stick": ColumnDataSource({"xs": [], "ys": []}, name="th_stick"),
+           "pinned": ColumnDataSource({"t": [], "x": []}, name="th_pinned")}
     p = figure(height=330, sizing_mode="stretch_width", tools="pan,wheel_zoom,box_zoom,reset",
                active_scroll="wheel_zoom", x_range=DataRange1d(), y_range=DataRange1d(),
                output_backend="canvas", name="time_history")
@@ -55,13 +64,17 @@ def time_history_figure() -> tuple[Any, dict[str, ColumnDataSource]]:
     teeth_r = p.varea(x="t", y1="yj", y2="tooth_hi", source=m, fill_color=TOOTH_COLOR, fill_alpha=0.55)
     wall_a = p.line("t", "y", source=m, color="#5d6d7e", line_width=1.5)
     wall_r = p.line("t", "yj", source=m, color="#5d6d7e", line_width=1.5, line_dash="dashed")
+    pinned = p.line("t", "x", source=src["pinned"], color=PIN_COLOR, line_width=1.8,
+                    line_dash="dashed", line_alpha=0.9, name="th_pinned_gear")
     gear = p.line("t", "x", source=m, color=GEAR_COLOR, line_width=1.8)
     stick = p.multi_line("xs", "ys", source=src["stick"], color=STICK_COLOR, line_width=6,
                          line_alpha=0.8)
     act = p.scatter("t", "x", source=src["active"], color=ACTIVE_COLOR, size=7, line_color="white")
     rev = p.scatter("t", "x", source=src["reverse"], color=REVERSE_COLOR, size=7, line_color="white")
     p.add_tools(HoverTool(renderers=[act, rev], tooltips=[("t", "@t{0.000}"), ("impulse", "@impulse{0.0000}")]))
-    legend = Legend(items=[LegendItem(label="gear x(t)", renderers=[gear]),
+    legend = Legend(items=[LegendItem(label=GEAR_LABEL, renderers=[gear], name="th_legend_gear"),
+                           LegendItem(label=PINNED_LABEL, renderers=[pinned], visible=False,
+                                      name="th_legend_pinned"),
                            LegendItem(label="active tooth y(t)", renderers=[wall_a, teeth_a]),
                            LegendItem(label="reverse tooth y(t) + j", renderers=[wall_r, teeth_r]),
                            LegendItem(label="impact, active flank", renderers=[act]),
@@ -88,7 +101,7 @@ class TimeHistoryView(pn.viewable.Viewer):
         self.pane = pn.pane.Bokeh(self.fig, sizing_mode="stretch_width", css_classes=["time-history"])
         #: What the current ranges were framed for: the axis labels and the data's time span.
         self._frame: tuple | None = None
-        self.state.param.watch(self.draw, ["result", "shown", "backlash_unit"])
+        self.state.param.watch(self.draw, ["result", "shown", "backlash_unit", "pinned_result"])
         self.draw()
 
     def __panel__(self):
@@ -107,6 +120,7 @@ class TimeHistoryView(pn.viewable.Viewer):
             self.sources[key].data = {k: np.asarray(imp[k])[sel] for k in IMPACTS}
         self.sources["stick"].data = {"xs": [s[0] for s in data["stick"]],
                                       "ys": [s[1] for s in data["stick"]]}
+        self._draw_pinned(run)
         xl, yl, _ = data["labels"]
         t = np.asarray(data["motion"]["t"])
         # the span to 9 digits: a Λ change at fixed speed redraws the same times
@@ -121,3 +135,22 @@ class TimeHistoryView(pn.viewable.Viewer):
         if self.fig.title.text != title:
             self.fig.title.text = title
         name_saved_png(self.fig, file_stem(run, "time"))
+
+    def pinned_trace(self, run: Any) -> dict[str, np.ndarray] | None:
+        """A's gear trace ``{t, x}`` in the axes of the live run ``run``, or None when there is
+        no pin (or, in physical units, A has no physical side to scale it by)."""
+        a = self.state.pinned_result
+        if a is None or (run.phys is not None) != (a.phys is not None):
+            return None
+        data = time_history_data(a.tr, min(self.state.shown, int(a.tr.periods)), a.phys,
+                                 angle=self.state.backlash_unit == "deg")
+        return {"t": data["motion"]["t"], "x": data["motion"]["x"]}
+
+    def _draw_pinned(self, run: Any) -> None:
+        trace = self.pinned_trace(run)
+        self.sources["pinned"].data = trace or {"t": [], "x": []}
+        gear, pinned = self.fig.legend[0].items[:2]
+        label = GEAR_LABEL if trace is None else GEAR_LABEL_B
+        if gear.label != value(label):  # a plain string would be read as a column's name
+            gear.label = value(label)
+        pinned.visible = trace is not None

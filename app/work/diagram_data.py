@@ -78,6 +78,17 @@ def current_value(name: str, state: Any) -> float:
     return float(state.lam)
 
 
+def run_value(name: str, run: Any, phases: str) -> float | None:
+    """Where ``run`` stands on the diagram of ``name`` (axis units, the page's convention
+    ``phases``); None for engine speed when the run has no physical side."""
+    if name == "rpm":
+        return None if run.phys is None else float(run.phys.rpm)
+    if name == "phi2":
+        core = float(run.params.phases_deg[1]) if run.params.n_harmonics > 1 else 0.0
+        return float(core_phi2_to_paper(core) % 360.0) if phases == "paper" else float(wrap180(core))
+    return float(run.params.lam)
+
+
 def full_range(name: str, phases: str, value: float) -> tuple[float, float]:
     """The default range of a diagram, stretched to hold ``value`` with a margin."""
     if name == "phi2":

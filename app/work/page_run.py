@@ -84,8 +84,11 @@ def compute(params: Any, kwargs: dict) -> tuple[Any, Any, float]:
 class PageRun:
     """How one session runs its own simulation: checked, then here or in a worker."""
 
-    def __init__(self, jobs: Any):
+    def __init__(self, jobs: Any, kind: str = "run"):
         self.jobs = jobs
+        #: The job kind its worker runs go under: a session has one job of each kind, so the
+        #: pinned run (``"pin"``) and the live run do not cancel each other.
+        self.kind = kind
         #: The run in a worker, if any (superseded by the next call of :meth:`run`).
         self.pending: Any = None
         self._token: object | None = None
@@ -122,6 +125,6 @@ class PageRun:
             if self._token is token:
                 self.pending = self._token = None
                 on_error(message)
-        self.pending = self.jobs.submit("run", compute, (params, kwargs), time_limit=TIME_LIMIT,
+        self.pending = self.jobs.submit(self.kind, compute, (params, kwargs), time_limit=TIME_LIMIT,
                                         on_done=done, on_error=failed)
         return None
