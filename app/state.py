@@ -161,6 +161,8 @@ class ExplorerState(Said):
     bif = param.Selector(default="lam", objects=["lam", "phi2", "rpm"], label="diagram",
                          doc="bifurcation diagram against Λ, φ₂ or (physical units) engine speed")
     overlays = Flag(True, label="overlays", doc="contact boundary Λ_c and 2πn/Λ")
+    tab = param.Selector(default="explorer", objects=["explorer", "maps", "gearbox"], label="tab",
+                         doc="the page's main tab, so that a shared link opens on it")
     # ----- physical units --------------------------------------------------------------------
     units = Flag(False, label="physical units")
     inertia = param.Number(_EX.inertia, bounds=U.INERTIA_RANGE, inclusive_bounds=OPEN,
@@ -229,17 +231,23 @@ MAP_AXES = ["lam", "r", "j", "h2", "phi2", "rpm", "drag_torque", "x0", "v0"]
 MAP_FIELDS = ["regime", "intensity", "period", "lyapunov", "stick_fraction", "attractor"]
 
 
-class MapSettings(Said):
-    """The Maps tab's request: axes, ranges, points, periods and the field shown, with bounds."""
+#: How far a map's axis may reach either way (the model's own ranges are checked per axis).
+MAP_RANGE = (-1e6, 1e6)
 
-    kind = param.Selector(default="regime", objects=["regime", "basin"])
+
+class MapSettings(Said):
+    """The Maps tab's request: axes, ranges, points, periods and the field shown, with bounds.
+
+    Its parameters are URL keys too (:data:`MAP_URL_KEYS`), so a shared link reopens the map."""
+
+    kind = param.Selector(default="regime", objects=["regime", "basin"], label="map kind")
     x_axis = param.Selector(default="lam", objects=MAP_AXES, label="x axis")
     y_axis = param.Selector(default="phi2", objects=MAP_AXES, label="y axis")
-    x_start = param.Number(0.5, label="x from")
-    x_stop = param.Number(4.0, label="x to")
+    x_start = param.Number(0.5, bounds=MAP_RANGE, label="x from")
+    x_stop = param.Number(4.0, bounds=MAP_RANGE, label="x to")
     x_num = param.Integer(60, bounds=(2, 400), label="x points")
-    y_start = param.Number(0.0, label="y from")
-    y_stop = param.Number(360.0, label="y to")
+    y_start = param.Number(0.0, bounds=MAP_RANGE, label="y from")
+    y_stop = param.Number(360.0, bounds=MAP_RANGE, label="y to")
     y_num = param.Integer(60, bounds=(2, 400), label="y points")
     transient = param.Integer(200, bounds=(0, 100_000), label="transient periods")
     record = param.Integer(60, bounds=(1, 10_000), label="recorded periods")
@@ -272,6 +280,8 @@ URL_KEYS.update(inertia="J", radius="Rb", drag_torque="C", backlash_um="b_um", b
                 excitation="exc", amp1="a1", amp2="a2", phase2="p2", solve_for="solve",
                 continuation="cont", curve_kind="curve", curve_at="curve_at",
                 curve_param2="curve_in")
+#: Map settings → URL query keys (``map_`` and the setting: ``map_x_axis``, ``map_x_num``, …).
+MAP_URL_KEYS = {n: f"map_{n}" for n in MapSettings.param if n not in ("name", "messages")}
 #: Parameters that change the trajectory.
 RUN_KEYS = ("lam", "r", "j", "h2", "phi2", "phases", "harmonics", "v_stick", "noise", "periods",
             "transient",

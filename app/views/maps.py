@@ -63,11 +63,15 @@ class MapsView(pn.viewable.Viewer):
 
     state = param.ClassSelector(class_=ExplorerState)
     jobs = param.Parameter()
+    settings = param.ClassSelector(class_=MapSettings, default=None,
+                                   doc="the request (the session's, in the URL; a new one if None)")
     revision = param.Integer(0)
 
     def __init__(self, **params: Any):
         super().__init__(**params)
-        self.settings = m = MapSettings()
+        if self.settings is None:
+            self.settings = MapSettings()
+        m = self.settings
         self.result: Any = None
         self.job: Any = None
         self._request: dict | None = None
@@ -100,9 +104,18 @@ class MapsView(pn.viewable.Viewer):
         m.param.watch(lambda e: setattr(self.pane, "object", self._plot()), "field")
         self._choices = {n: Choice(m, n, {_axis_label(a): a for a in self._axes()}, select=True,
                                    sizing_mode="stretch_width") for n in ("x_axis", "y_axis")}
-        self._field = Choice(m, "field", {v: k for k, v in FIELDS.items()}, select=True, width=300)
-        if self.state.units:  # in physical units a map runs against engine speed and drag torque
+        self._field = Choice(m, "field", self._fields(), select=True, width=300)
+        default = (m.param.x_axis.default, m.param.y_axis.default)
+        if self.state.units and m.kind == "regime" and (m.x_axis, m.y_axis) == default:
+            # in physical units a map runs against engine speed and drag torque (unless the
+            # link chose other axes)
             self._set_axes("rpm", "drag_torque")
+        for a in ("x", "y"):  # a link naming an axis but not its range: the axis's own range
+            start, stop = f"{a}_start", f"{a}_stop"
+            if ((getattr(m, f"{a}_axis") != m.param[f"{a}_axis"].default)
+                    and (getattr(m, start), getattr(m, stop)) == (m.param[start].default, m.param[stop].default)):
+                lo, hi = self._range(getattr(m, f"{a}_axis"))
+                m.param.update({start: lo, stop: hi})
 
     def __panel__(self):
         m = self.settings
@@ -163,9 +176,13 @@ class MapsView(pn.viewable.Viewer):
     def _on_kind(self, event) -> None:
         basin = event.new == "basin"
         self._set_axes(*(("x0", "v0") if basin else ("lam", "phi2")))
-        self._field.widget.options = {v: k for k, v in FIELDS.items()} if not basin else {
-            "attractor reached": "attractor", **{v: k for k, v in FIELDS.items()}}
+        self._field.widget.options = self._fields()
         self.settings.field = "attractor" if basin else "regime"
+
+    def _fields(self) -> dict[str, str]:
+        """The fields a map of the settings' kind can show (label → field)."""
+        fields = {v: k for k, v in FIELDS.items()}
+        return {"attractor reached": "attractor", **fields} if self.settings.kind == "basin" else fields
 
     def _on_units(self, event) -> None:
         if self.settings.kind == "regime":
@@ -228,6 +245,33 @@ class MapsView(pn.viewable.Viewer):
                                      on_done=lambda r: self._done(req, r),
                                      on_error=lambda msg: self._error(req, msg))
         return True
+
+    def open_link(self) -> None:
+        """The page opened on the Maps tab: compute the link's map if it is no heavier than the
+        default map (a disk-cached map is read, not recomputed); a heavier one waits for Compute,
+        so that a link cannot make the server work minutes for each visitor."""
+        if self.state.result is None:  # the first run is still in a worker: once it is in
+            def once(event) -> None:
+                if event.new is not None:
+                    self.state.param.unwatch(watcher)
+                    self.open_link()
+            watcher = self.state.param.watch(once, "result")
+            return
+        req = self.request()
+        if req is None:
+            self.status.object = text_html("This link's map cannot run: see the message above.")
+            return
+        m = MapSettings
+        light = (m.param.x_num.default * m.param.y_num.default
+                 * (m.param.transient.default + m.param.record.default))
+        nx, ny = req["x_values"].size, req["y_values"].size
+        periods = req["transient"] + req["record"]
+        if nx * ny * periods <= light:
+            self.compute()
+        else:
+            self.status.object = text_html(
+                f"This link asks for a map of {nx} × {ny} = {nx * ny} points over {periods} periods "
+                "each, more than a link computes by itself: press Compute to run it.")
 
     def cancel(self, text: str | None = None) -> None:
         if self.job is not None:
