@@ -81,3 +81,20 @@ def test_a_shared_link_reopens_its_map_and_the_url_follows_the_page(page, dashbo
     page.locator(".bk-tab", has_text="Gearbox").first.click()
     page.wait_for_function("() => window.location.search.includes('tab=gearbox')", timeout=20_000)
     assert dashboard_server["log"].tracebacks() == []
+
+
+def test_a_click_on_a_lambda_r_map_opened_from_the_explorer_lands_there(page, dashboard_server):
+    """Explorer first (its plots drawn), then a Λ × r map: a click sets exactly that Λ and r.
+
+    The Explorer's plots share the axis names "x" and "y" with the map; Panel linked their
+    ranges, and the map's click stream then refused every click as out of its range.
+    """
+    from test_ui_fixes import compute_map, fig
+
+    open_dashboard(page, dashboard_server, "?map_y_axis=r")
+    compute_map(page, 5, 4)
+    p = fig(page, "map_figure", 3.125, 0.95)  # grid: Λ 0.5…4 in 5, r 0.3…0.95 in 4
+    page.mouse.click(p["sx"], p["sy"])
+    page.wait_for_function("() => window.location.search.includes('lam=3.125')", timeout=20_000)
+    assert "r=0.95" in page.url
+    assert dashboard_server["log"].tracebacks() == []
