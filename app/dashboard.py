@@ -88,7 +88,7 @@ class Dashboard:
         self.layout = pn.template.BootstrapTemplate(
             title="Rattle Explorer: gear rattle, exactly",
             sidebar=[self.controls, self.units], sidebar_width=SIDEBAR_WIDTH,
-            main=[message(s, "url"), message(s, "global"), self.tabs],
+            main=[message(s, "url"), message(s, "tab"), message(s, "global"), self.tabs],
             header_background="#2c3e50")
 
     def _on_tab(self, event) -> None:

@@ -13,7 +13,9 @@ Phases are stored in the convention the page shows (``phases``): the paper's
 :meth:`ExplorerState.set_phase_convention` converts ``phi2`` and the extra harmonics when the
 user switches, so the model does not change; :func:`rattle_params` converts to the core.
 
-The URL keys are the parameter names (physical inputs have short keys, :data:`URL_KEYS`).
+The URL keys are the parameter names (physical inputs have short keys, :data:`URL_KEYS`);
+the Maps tab's :class:`MapSettings` are URL keys too, each with a ``map_`` prefix
+(:data:`MAP_URL_KEYS`).
 """
 from __future__ import annotations
 

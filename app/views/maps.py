@@ -1,7 +1,9 @@
 """The Maps tab: regime and intensity maps over two parameters, and basins of attraction.
 
-A ``pn.viewable.Viewer`` over the state with its own request settings (:class:`MapSettings`:
-axes, ranges, points, periods, the field shown), whose bounds validate them. Compute runs
+A ``pn.viewable.Viewer`` over the state and the session's map request (:class:`MapSettings`:
+axes, ranges, points, periods, the field shown), whose bounds validate them; the request is
+in the URL beside the state, so a link opened on the Maps tab reopens its map
+(:meth:`MapsView.open_link`). Compute runs
 :func:`rattle_core.store.requests.run_map` as this session's ``map`` job (:mod:`app.work.jobs`): in a worker
 process, bounded in time, cancelled by Cancel, by a new request and when the session ends,
 from the disk cache when the same map ran before. Maps run on the server's cores, or on the
