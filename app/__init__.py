@@ -26,7 +26,7 @@ How a session is built (``app.main.create_app`` → :class:`app.dashboard.Dashbo
     ui/      labels.py: words, colours and escaped HTML; plots.py, widgets.py: helpers
     core.py  everything taken from rattle_core beyond its top-level names
 
-Adding a part (the continuation of issue 11, say) takes three steps:
+Adding a part (a new plot of the current run, say) takes three steps:
 
 1. add the parameters it needs to :class:`~app.state.ExplorerState`, with bounds and labels
    (they join the URL by themselves; add them to ``RUN_KEYS`` only if they change the run);

@@ -32,6 +32,8 @@ from .views.units import UnitsView
 from .ui.widgets import message
 
 SIDEBAR_WIDTH = 380
+#: The main tabs, in order, as the state's ``tab`` (and the URL) names them.
+TABS = ("explorer", "maps", "gearbox")
 #: Every live dashboard (weakly held): a closed session's must disappear from here.
 LIVE: "weakref.WeakSet[Dashboard]" = weakref.WeakSet()
 
@@ -61,7 +63,7 @@ class Dashboard:
         self.sound = SoundView(state=s)
         self.sensitivity = SensitivityView(state=s)
         self.curve = CurveView(state=s, jobs=jobs)
-        self.maps = MapsView(state=s, jobs=jobs)
+        self.maps = MapsView(state=s, jobs=jobs, settings=self.session.map_settings)
         self.atlas = AtlasView(state=s, jobs=jobs, maps=self.maps)
         self.gearbox = GearboxView(state=s, jobs=jobs)
         self.views = [self.controls, self.units, self.regime, self.pin, self.noise,
@@ -79,13 +81,25 @@ class Dashboard:
             self.sensitivity, self.sound, sizing_mode="stretch_width")
         maps_tab = pn.Column(self.maps, self.atlas, sizing_mode="stretch_width")
         self.tabs = pn.Tabs(("Explorer", explorer), ("Maps", maps_tab), ("Gearbox", self.gearbox),
-                            dynamic=True,
+                            dynamic=True, active=TABS.index(s.tab),
                             sizing_mode="stretch_width", css_classes=["main-tabs"])
+        # the active tab is the state's ``tab`` (a URL key): a shared link opens on its tab
+        self.tabs.param.watch(self._on_tab, "active")
+        s.param.watch(self._on_state_tab, "tab")
+        if s.tab == "maps":
+            self.maps.open_link()
         self.layout = pn.template.BootstrapTemplate(
             title="Rattle Explorer: gear rattle, exactly",
             sidebar=[self.controls, self.units], sidebar_width=SIDEBAR_WIDTH,
-            main=[message(s, "url"), message(s, "global"), self.tabs],
+            main=[message(s, "url"), message(s, "tab"), message(s, "global"), self.tabs],
             header_background="#2c3e50")
+
+    def _on_tab(self, event) -> None:
+        if 0 <= event.new < len(TABS):
+            self.state.tab = TABS[event.new]
+
+    def _on_state_tab(self, event) -> None:
+        self.tabs.active = TABS.index(event.new)
 
     def destroy(self) -> None:
         """The session closed: cancel its work and let go of its results."""

@@ -35,13 +35,11 @@ import panel as pn
 if __package__ in (None, ""):  # run as a script by `panel serve app/main.py`
     sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     from app import query
-    from app.views import maps as maps_view
-    from app.work import jobs, tasks
+    from app.work import jobs, map_plan, tasks
     from app.dashboard import Dashboard
 else:  # imported as a package: `app` in a checkout, `rattle_app` when installed
     from . import query
-    from .views import maps as maps_view
-    from .work import jobs, tasks
+    from .work import jobs, map_plan, tasks
     from .dashboard import Dashboard
 
 log = logging.getLogger("app")
@@ -205,7 +203,7 @@ def serve(port: int = 5006, address: str = "localhost", show: bool = False,
             if not threaded:  # a server that returns keeps its cluster; one that ends closes it
                 stack.callback(cluster.close)
             scheduler = cluster.scheduler_address
-        maps_view.set_scheduler(scheduler or "")
+        map_plan.set_scheduler(scheduler or "")
         configure()
         logging.basicConfig(level=logging.INFO,
                             format="%(asctime)s %(name)s %(levelname)s %(message)s")

@@ -10,9 +10,11 @@ one watcher, which
 3. or, when the change cannot run, puts the last good values back, with a message beside
    the control at fault: a rejected value never reaches the views.
 
-The URL is ``pn.state.location.sync`` of the state. A key whose value param refuses gets a
-message beside its control and the URL shows the value kept; unknown keys and empty values
-get a message too. The messages are plain text (the views escape them).
+The URL is ``pn.state.location.sync`` of the state and of the Maps tab's settings
+(:class:`~app.state.MapSettings`, which the session owns so that a link's map settings are in
+force before the tab is built). A key whose value param refuses gets a message beside its
+control and the URL shows the value kept; unknown keys and empty values get a message too.
+The messages are plain text (the views escape them).
 
 A pinned run (``state.pinned``, A) is run by :class:`app.pinning.Pinner`.
 
@@ -25,7 +27,6 @@ from __future__ import annotations
 import itertools
 import logging
 import math
-import re
 import urllib.parse
 import weakref
 from typing import Any, Callable
@@ -36,8 +37,8 @@ from rattle_core import SolverError
 
 from .work import jobs as jobs_module
 from .pinning import Pinner, drop_bad_pin
-from .state import (PHYSICAL_KEYS, RUN_KEYS, URL_KEYS, ExplorerState, Run, rattle_params,
-                             rejection)
+from .state import (MAP_URL_KEYS, PHYSICAL_KEYS, RUN_KEYS, URL_KEYS, ExplorerState, MapSettings,
+                    Run, field_of_error, rattle_params, rejection)
 from .physical import LinkError, link, run_physical
 from .query import readable
 from .work.page_run import TIME_LIMIT, PageRun, run_kwargs
@@ -53,25 +54,6 @@ RUNNING = (f"Running this heavy view in the background (up to {TIME_LIMIT:g} s);
            "replaces it.")
 #: Parameters a change of which is carried across the link and may need a new run.
 WATCHED = tuple(dict.fromkeys((*RUN_KEYS, *PHYSICAL_KEYS, "units", "solve_for")))
-#: Core parameter names in error messages → state parameters.
-_CORE_NAMES = {"lam": "lam", "Λ": "lam", "r": "r", "j": "j", "v_stick": "v_stick", "x0": "x0",
-               "v0": "v0", "t0": "t0", "periods": "periods", "transient": "transient",
-               "strobe_phase": "strobe", "noise": "noise"}
-
-
-def field_of_error(message: str) -> str | None:
-    """Which state parameter a core ``ValueError`` is about, from the name it starts with."""
-    m = re.match(r"\s*([A-Za-z_0-9θΛφ]+)(\[(\d+)\])?", message)
-    if not m:
-        return None
-    word, idx = m.group(1), m.group(3)
-    if word in ("amplitudes", "phases_deg") and idx is not None:
-        if int(idx) == 1:
-            return "h2" if word == "amplitudes" else "phi2"
-        return "harmonics"
-    return _CORE_NAMES.get(word)
-
-
 class SessionJobs:
     """A session's handle on the job pool: one job per kind, callbacks run in its document."""
 
@@ -138,6 +120,10 @@ class Session:
     def __init__(self, location: Any = None, doc: Any = None, pool: Any = None):
         self.key = next(_ids)
         self.state = ExplorerState()
+        #: The Maps tab's request, in the URL beside the state.
+        self.map_settings = MapSettings()
+        #: What the URL carries: each synced object with its parameter → key names.
+        self.synced = ((self.state, URL_KEYS), (self.map_settings, MAP_URL_KEYS))
         self.jobs = SessionJobs(self.key, doc, pool)
         self.page = PageRun(self.jobs)
         #: ``(params, run kwargs)`` of ``state.result``: a pin of the same run reuses it.
@@ -264,40 +250,50 @@ class Session:
     # ----- the URL ----------------------------------------------------------------------------
 
     def _sync_url(self, location: Any) -> None:
-        s = self.state
-
-        def on_error(values: dict[str, Any]) -> None:
-            # the location applies a batch at once: apply the values param accepts, as one
-            # batch again (so the physical inputs of a link still win), and say which it refused
-            good = {}
-            for name, value in values.items():
-                try:
-                    s.param[name]._validate(value)
-                    good[name] = value
-                except ValueError:
-                    s.say(name, "URL: " + rejection(s, name, value))
-            s.param.update(**good)
-            rejected = [n for n in values if n not in good]
-            if rejected:
-                location.update_query(**{URL_KEYS[n]: _serialize(s, n) for n in rejected})
+        def on_error(obj: Any, keys: dict[str, str]) -> Callable:
+            def apply(values: dict[str, Any]) -> None:
+                # the location applies a batch at once: apply the values param accepts, as one
+                # batch again (so the physical inputs of a link still win), and say which it
+                # refused
+                good = {}
+                for name, value in values.items():
+                    try:
+                        obj.param[name]._validate(value)
+                        good[name] = value
+                    except ValueError:
+                        obj.say(name, "URL: " + rejection(obj, name, value))
+                obj.param.update(**good)
+                rejected = [n for n in values if n not in good]
+                if rejected:
+                    location.update_query(**{keys[n]: _serialize(obj, n) for n in rejected})
+            return apply
 
         clean, unreadable = readable(location.search)
-        pinless = drop_bad_pin(clean, s)
+        pinless = drop_bad_pin(clean, self.state)
         if unreadable or pinless != clean:  # before Panel reads the link: such a value would fail the whole page
             location.search = pinless
         link = location.search
         self._check_query(link)
         for key, why in unreadable.items():
-            name = {v: k for k, v in URL_KEYS.items()}.get(key, "url")
+            obj, name = self._owner(key)
             from .ui.labels import short
-            s.say(name, f"URL: the value of {short(key)} cannot be read ({why}); ignored.")
-        location.sync(s, URL_KEYS, on_error=on_error)
+            obj.say(name, f"URL: the value of {short(key)} cannot be read ({why}); ignored.")
+        for obj, keys in self.synced:
+            location.sync(obj, keys, on_error=on_error(obj, keys))
         # the URL shows the state in force: rejected and reverted values corrected, unknown
         # keys dropped
         location.search = "?" + urllib.parse.urlencode(
-            {key: _serialize(s, name) for name, key in URL_KEYS.items()})
+            {key: _serialize(obj, name) for obj, keys in self.synced for name, key in keys.items()})
         self._physical_wins(link)
         self._search_watcher = location.param.watch(self._on_search, "search")
+
+    def _owner(self, key: str) -> tuple[Any, str]:
+        """The synced object and parameter a URL key belongs to (the state's ``url`` if none)."""
+        for obj, keys in self.synced:
+            for name, k in keys.items():
+                if k == key:
+                    return obj, name
+        return self.state, "url"
 
     def _on_search(self, event) -> None:
         # the browser reports the link again once connected, and Panel applies its dimensionless
@@ -309,16 +305,18 @@ class Session:
     def _show_state_in_url(self, search: str) -> None:
         """Correct URL keys whose value is not the one in force (refused, or put back)."""
         from .query import parse_query
-        s, query, fix = self.state, parse_query(search or ""), {}
-        for name, key in URL_KEYS.items():
-            if key in query:
-                try:
-                    same = s.param[name].deserialize(query[key]) == getattr(s, name)
-                except Exception:
-                    same = False
-                if not same and not (query[key] == "" and getattr(s, name) is None):
-                    fix[key] = _serialize(s, name)
-        unknown = [k for k in query if k not in set(URL_KEYS.values())]
+        query, fix = parse_query(search or ""), {}
+        for obj, keys in self.synced:
+            for name, key in keys.items():
+                if key in query:
+                    try:
+                        same = obj.param[name].deserialize(query[key]) == getattr(obj, name)
+                    except Exception:
+                        same = False
+                    if not same and not (query[key] == "" and getattr(obj, name) is None):
+                        fix[key] = _serialize(obj, name)
+        known = {k for _, keys in self.synced for k in keys.values()}
+        unknown = [k for k in query if k not in known]
         if unknown:  # dropped: the URL says what is in force, nothing else
             kept = {k: v for k, v in urllib.parse.parse_qsl((search or "")[1:]) if k not in unknown}
             merged = {**kept, **fix}
@@ -354,17 +352,17 @@ class Session:
     def _check_query(self, search: str) -> None:
         """Messages for the link's unknown keys and empty values (which are not applied)."""
         s = self.state
-        names = {v: k for k, v in URL_KEYS.items()}
         pairs = urllib.parse.parse_qsl((search or "")[1:], keep_blank_values=True)
-        unknown = [k for k, _ in pairs if k not in names]
+        unknown = [k for k, _ in pairs if self._owner(k)[1] == "url"]
         if unknown:
             from .ui.labels import short
             s.say("url", f"URL: unknown key{'s' if len(unknown) > 1 else ''} "
                             f"{', '.join(short(k) for k in unknown[:5])} ignored.")
         for key, value in pairs:
-            name = names.get(key)
-            if name is not None and value == "" and name not in ("x0", "cont_from", "curve_at") and getattr(s, name) != "":
-                s.say(name, f"URL: {s.param[name].label} is empty. Kept {_serialize(s, name)}.")
+            obj, name = self._owner(key)
+            if (name != "url" and value == "" and name not in ("x0", "cont_from", "curve_at")
+                    and getattr(obj, name) != ""):
+                obj.say(name, f"URL: {obj.param[name].label} is empty. Kept {_serialize(obj, name)}.")
 
     # ----- teardown -----------------------------------------------------------------------------
 
@@ -379,18 +377,19 @@ class Session:
         if self.location is not None:
             if self._search_watcher is not None:
                 self.location.param.unwatch(self._search_watcher)
-            try:
-                self.location.unsync(self.state)
-            except Exception:
-                pass
+            for obj, _ in self.synced:
+                try:
+                    self.location.unsync(obj)
+                except Exception:
+                    pass
             self.location = None
         with param.parameterized.discard_events(self.state):  # no view redraws a closed page
             self.state.result = None
             self.state.pinned_result = None
 
 
-def _serialize(state: ExplorerState, name: str) -> str:
-    """The state's value of ``name`` as the URL carries it."""
+def _serialize(obj: param.Parameterized, name: str) -> str:
+    """``obj``'s value of ``name`` as the URL carries it."""
     import json
-    v = state.param[name].serialize(getattr(state, name))
+    v = obj.param[name].serialize(getattr(obj, name))
     return v if isinstance(v, str) else json.dumps(v)

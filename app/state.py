@@ -13,13 +13,16 @@ Phases are stored in the convention the page shows (``phases``): the paper's
 :meth:`ExplorerState.set_phase_convention` converts ``phi2`` and the extra harmonics when the
 user switches, so the model does not change; :func:`rattle_params` converts to the core.
 
-The URL keys are the parameter names (physical inputs have short keys, :data:`URL_KEYS`).
+The URL keys are the parameter names (physical inputs have short keys, :data:`URL_KEYS`);
+the Maps tab's :class:`MapSettings` are URL keys too, each with a ``map_`` prefix
+(:data:`MAP_URL_KEYS`).
 A pinned run (``pinned``, URL key ``pin``) is checked and run by :mod:`app.pinning`.
 """
 from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from typing import Any
 
 import param
@@ -27,7 +30,7 @@ import param
 from rattle_core import RattleParams
 
 from .core import (AMPLITUDE_RANGE, J_RANGE, LAM_RANGE, MAX_HARMONICS, NOISE_DEFAULT,
-                   NOISE_RANGE, PAPER_CASES, PHASE_RANGE_DEG, R_RANGE, V_STICK_RANGE,
+                   NOISE_RANGE, PHASE_RANGE_DEG, R_RANGE, V_STICK_RANGE,
                    MAX_T0, check_range, core_to_paper_phases, paper_to_core_phases)
 from .core import units as U
 
@@ -162,6 +165,8 @@ class ExplorerState(Said):
     bif = param.Selector(default="lam", objects=["lam", "phi2", "rpm"], label="diagram",
                          doc="bifurcation diagram against Λ, φ₂ or (physical units) engine speed")
     overlays = Flag(True, label="overlays", doc="contact boundary Λ_c and 2πn/Λ")
+    tab = param.Selector(default="explorer", objects=["explorer", "maps", "gearbox"], label="tab",
+                         doc="the page's main tab, so that a shared link opens on it")
     # ----- physical units --------------------------------------------------------------------
     units = Flag(False, label="physical units")
     inertia = param.Number(_EX.inertia, bounds=U.INERTIA_RANGE, inclusive_bounds=OPEN,
@@ -234,17 +239,23 @@ MAP_AXES = ["lam", "r", "j", "h2", "phi2", "rpm", "drag_torque", "x0", "v0"]
 MAP_FIELDS = ["regime", "intensity", "period", "lyapunov", "stick_fraction", "attractor"]
 
 
-class MapSettings(Said):
-    """The Maps tab's request: axes, ranges, points, periods and the field shown, with bounds."""
+#: How far a map's axis may reach either way (the model's own ranges are checked per axis).
+MAP_RANGE = (-1e6, 1e6)
 
-    kind = param.Selector(default="regime", objects=["regime", "basin"])
+
+class MapSettings(Said):
+    """The Maps tab's request: axes, ranges, points, periods and the field shown, with bounds.
+
+    Its parameters are URL keys too (:data:`MAP_URL_KEYS`), so a shared link reopens the map."""
+
+    kind = param.Selector(default="regime", objects=["regime", "basin"], label="map kind")
     x_axis = param.Selector(default="lam", objects=MAP_AXES, label="x axis")
     y_axis = param.Selector(default="phi2", objects=MAP_AXES, label="y axis")
-    x_start = param.Number(0.5, label="x from")
-    x_stop = param.Number(4.0, label="x to")
+    x_start = param.Number(0.5, bounds=MAP_RANGE, label="x from")
+    x_stop = param.Number(4.0, bounds=MAP_RANGE, label="x to")
     x_num = param.Integer(60, bounds=(2, 400), label="x points")
-    y_start = param.Number(0.0, label="y from")
-    y_stop = param.Number(360.0, label="y to")
+    y_start = param.Number(0.0, bounds=MAP_RANGE, label="y from")
+    y_stop = param.Number(360.0, bounds=MAP_RANGE, label="y to")
     y_num = param.Integer(60, bounds=(2, 400), label="y points")
     transient = param.Integer(200, bounds=(0, 100_000), label="transient periods")
     record = param.Integer(60, bounds=(1, 10_000), label="recorded periods")
@@ -278,6 +289,8 @@ URL_KEYS.update(inertia="J", radius="Rb", drag_torque="C", backlash_um="b_um", b
                 excitation="exc", amp1="a1", amp2="a2", phase2="p2", solve_for="solve",
                 continuation="cont", curve_kind="curve", curve_at="curve_at",
                 curve_param2="curve_in", pinned="pin")
+#: Map settings → URL query keys (``map_`` and the setting: ``map_x_axis``, ``map_x_num``, …).
+MAP_URL_KEYS = {n: f"map_{n}" for n in MapSettings.param if n not in ("name", "messages")}
 #: Parameters that change the trajectory.
 RUN_KEYS = ("lam", "r", "j", "h2", "phi2", "phases", "harmonics", "v_stick", "noise", "periods",
             "transient",
@@ -362,46 +375,20 @@ def display_phases(params: RattleParams, convention: str) -> tuple[float, ...]:
     return core_to_paper_phases(params.phases_deg) if convention == "paper" else params.phases_deg
 
 
-# ----- the paper's cases ------------------------------------------------------------------
-
-def _case(key: str, **kw: Any) -> dict[str, Any]:
-    """State values of one of the paper's cases (``rattle_core.paper``), in its phases."""
-    c = PAPER_CASES[key]
-    p = c.params
-    values = {"r": p.r, "j": p.j, "h2": 0.0, "phi2": 0.0, "harmonics": "", "phases": "paper",
-              "x0": None, "v0": 0.0, "t0": 0.0, "lam": p.lam}
-    if c.paper_phi2 is not None or c.name == "phi2":
-        values.update(h2=p.amplitudes[1], phi2=c.paper_phi2 if c.paper_phi2 is not None else 0.0)
-    if c.name:
-        values["bif"] = c.name
-    return {**values, **kw}
+#: Core parameter names in error messages → state parameters.
+_CORE_NAMES = {"lam": "lam", "Λ": "lam", "r": "r", "j": "j", "v_stick": "v_stick", "x0": "x0",
+               "v0": "v0", "t0": "t0", "periods": "periods", "transient": "transient",
+               "strobe_phase": "strobe", "noise": "noise"}
 
 
-#: One-click reproductions of the paper's figures: label → (description, state values).
-PRESETS: dict[str, tuple[str, dict[str, Any]]] = {
-    "Fig 2": ("Impulse vs Λ, harmonic excitation", _case("fig2", lam=2.5, shown=12)),
-    "Fig 3B": ("Time history, regime B: impacts then permanent contact",
-               _case("fig3", lam=1.1, bif="lam", shown=6)),
-    "Fig 3C": ("Time history, regime C: one active-flank impact per period",
-               _case("fig3", lam=1.2, bif="lam", shown=6)),
-    "Fig 3D": ("Time history, regime D: chaotic", _case("fig3", lam=1.16, bif="lam", shown=12)),
-    "Fig 3E": ("Time history, regime E: one impact on each flank per period",
-               _case("fig3", lam=3.3, bif="lam", shown=6)),
-    "Fig 4": ("Impulse vs Λ, H₂/H₁ = 0.25, φ₂ = 45° (paper)", _case("fig4", lam=3.3)),
-    "Fig 5": ("Impulse vs Λ, H₂/H₁ = 0.25, φ₂ = 90° (paper)", _case("fig5", lam=3.3)),
-    "Fig 6": ("Impulse vs φ₂ at Λ = 1.95", _case("fig6", phi2=45.0)),
-    "Fig 7": ("Strange attractor: Λ = 3.3, φ₂ = 45° (paper)",
-              _case("fig7", bif="lam", periods=5000, section="absolute")),
-    "Fig 8": ("Periodic, one impact per flank: Λ = 3.3, φ₂ = 90° (paper)",
-              _case("fig8", bif="lam", periods=200, shown=6, section="absolute")),
-}
-
-
-def preset_values(state: ExplorerState, label: str) -> dict[str, Any]:
-    """A preset's values for ``state``: phases converted when the page shows the core's."""
-    values = dict(PRESETS[label][1])
-    if state.phases == "core":
-        values["phases"] = "core"
-        values["phi2"] = convert_phase(values["phi2"], 2)
-    return values
-
+def field_of_error(message: str) -> str | None:
+    """Which state parameter a core ``ValueError`` is about, from the name it starts with."""
+    m = re.match(r"\s*([A-Za-z_0-9θΛφ]+)(\[(\d+)\])?", message)
+    if not m:
+        return None
+    word, idx = m.group(1), m.group(3)
+    if word in ("amplitudes", "phases_deg") and idx is not None:
+        if int(idx) == 1:
+            return "h2" if word == "amplitudes" else "phi2"
+        return "harmonics"
+    return _CORE_NAMES.get(word)

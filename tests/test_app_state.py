@@ -14,6 +14,7 @@ import pytest
 from panel.io.location import Location
 
 from app import state as st
+from app.presets import preset_values
 from app.session import LIVE, Session
 from rattle_core import RattleParams, classify, simulate, units
 from rattle_core.paper.cases import CASES
@@ -89,7 +90,7 @@ def test_paper_45_degrees_at_lambda_33_is_chaotic_and_core_45_is_not():
 def test_presets_reproduce_the_papers_regimes(label, regime):
     """Each time-history preset, run as the dashboard runs it, shows the paper's regime."""
     s = st.ExplorerState()
-    s.param.update(**st.preset_values(s, label))
+    s.param.update(**preset_values(s, label))
     tr = simulate(st.rattle_params(s), periods=s.periods, transient=s.transient, lyapunov=True)
     assert classify(tr).regime == regime
 
@@ -98,11 +99,11 @@ def test_presets_come_from_the_papers_cases():
     """Fig 4 and Fig 8 carry the paper's cases' parameters (rattle_core.paper)."""
     for label, key in (("Fig 4", "fig4"), ("Fig 8", "fig8")):
         s = st.ExplorerState()
-        s.param.update(**st.preset_values(s, label))
+        s.param.update(**preset_values(s, label))
         p = st.rattle_params(s).with_value("lam", CASES[key].params.lam)
         assert p == CASES[key].params
     s = st.ExplorerState(phases="core", phi2=0.0)
-    assert st.preset_values(s, "Fig 8")["phi2"] == st.convert_phase(90.0, 2) == 180.0
+    assert preset_values(s, "Fig 8")["phi2"] == st.convert_phase(90.0, 2) == 180.0
 
 
 # ----- the session: runs, reverts, the URL ----------------------------------------------------------

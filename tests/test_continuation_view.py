@@ -15,7 +15,7 @@ from conftest import wait_for
 
 from app.work.branch import continue_both_ways, from_job
 from app.views.continuation import branch_overlay, multipliers_element
-from app.state import PRESETS
+from app.presets import PRESETS
 from rattle_core import RattleParams
 from rattle_core.analysis.continuation import c_orbit
 

@@ -163,14 +163,15 @@ def test_serve_sets_where_maps_run(monkeypatch):
     """serve(scheduler=...) is where maps run; there is no field for it on the page."""
     import app.main
     import app.views.maps as mv
+    from app.work import map_plan
     monkeypatch.setattr(app.main.pn, "serve", lambda *a, **k: None)
     monkeypatch.setattr(app.main, "warm_up", lambda: None)
     monkeypatch.setattr(app.main, "_answers", lambda *a: True)
     try:
         app.main.serve(port=5999, scheduler="tcp://10.1.2.3:8786", threaded=True, quiet=True)
-        assert mv.scheduler() == "tcp://10.1.2.3:8786"
+        assert map_plan.scheduler() == "tcp://10.1.2.3:8786"
         with pytest.raises(ValueError, match="not both"):
             app.main.serve(port=5999, scheduler="tcp://h:1", dask="local")
     finally:
-        mv.set_scheduler("")
+        map_plan.set_scheduler("")
     assert "scheduler" not in mv.MapSettings.param

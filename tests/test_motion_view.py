@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.state import PRESETS
+from app.presets import PRESETS
 from app.views.motion import IDLE_V, DRIVING_V, motion_frames, teeth_xs, tooth_size
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.state import PRESETS, preset_values
+from app.presets import PRESETS, preset_values
 from app.views.explorer import start_from_section
 from app.views.sensitivity import PERIODS, twin_runs
 from rattle_core import simulate

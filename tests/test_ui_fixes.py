@@ -105,10 +105,6 @@ def test_intensity_map_pixels_follow_its_colour_bar(page, dashboard_server):
     assert checked >= 10
 
 
-@pytest.mark.xfail(reason="known regression: a click on the rpm × drag-torque map no longer "
-                          "reaches the state since the map's plot gained its in-figure colour key "
-                          "and the atlas overlay; the click lands on the figure, nothing follows",
-                   strict=False)
 def test_click_on_the_rpm_drag_torque_map_lands_there_and_the_url_follows(page, dashboard_server):
     """Fix 2: units, C = 0.05 N·m, 1500 rpm: a map click sets exactly that rpm and C, URL at once."""
     open_dashboard(page, dashboard_server, "?units=1&C=0.05&rpm=1500")

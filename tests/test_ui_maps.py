@@ -51,3 +51,50 @@ def test_maps_tab_computes_a_small_map(page, dashboard_server):
     expect(page.locator(".map-status").first).to_contain_text("12 × 12 = 144 points")
     assert errors == []
     assert dashboard_server["log"].tracebacks() == []
+
+
+def test_a_shared_link_reopens_its_map_and_the_url_follows_the_page(page, dashboard_server):
+    """/?tab=maps with an r × φ₂ map: the Maps tab opens with the link's settings and computes
+    the map; a click on it sets r and φ₂, and a changed setting goes into the URL."""
+    from test_ui import BOX_SHOWS, painted
+    from test_ui_fixes import MAP_IMAGE, fig
+
+    page.goto(f"{dashboard_server['url']}/?tab=maps&map_x_axis=r&map_x_start=0.4&map_x_stop=0.9"
+              "&map_x_num=5&map_y_num=4&map_transient=40&map_record=20", timeout=120_000)
+    page.locator(".map-compute button").first.wait_for(timeout=60_000)
+    expect(page.locator(".bk-tab.bk-active").first).to_have_text("Maps")
+    assert page.locator(".ctl-x_axis select").first.input_value() == "r"
+    for css, want in ((".map-x-start", 0.4), (".map-x-stop", 0.9), (".map-x-num", 5),
+                      (".map-y-num", 4), (".map-transient", 40), (".map-record", 20)):
+        page.wait_for_function(BOX_SHOWS, arg=[css, want, 1e-9], timeout=20_000)
+    # no Compute pressed: a link's light map runs by itself
+    page.locator(".map-status", has_text="5 × 4 = 20 points").first.wait_for(timeout=120_000)
+    page.wait_for_function(f"() => {{ const m = ({MAP_IMAGE})(); return m != null && m.shape[0] == 4 "
+                           "&& m.shape[1] == 5; }", timeout=60_000)
+    painted(page)
+    p = fig(page, "map_figure", 0.775, 240.0)  # grid: r 0.4…0.9 in 5, φ₂ 0…360 in 4
+    page.mouse.click(p["sx"], p["sy"])
+    page.wait_for_function("() => window.location.search.includes('r=0.775')", timeout=20_000)
+    assert "phi2=240" in page.url
+    set_input(page, ".map-x-num", "6")
+    page.wait_for_function("() => window.location.search.includes('map_x_num=6')", timeout=20_000)
+    page.locator(".bk-tab", has_text="Gearbox").first.click()
+    page.wait_for_function("() => window.location.search.includes('tab=gearbox')", timeout=20_000)
+    assert dashboard_server["log"].tracebacks() == []
+
+
+def test_a_click_on_a_lambda_r_map_opened_from_the_explorer_lands_there(page, dashboard_server):
+    """Explorer first (its plots drawn), then a Λ × r map: a click sets exactly that Λ and r.
+
+    The Explorer's plots share the axis names "x" and "y" with the map; Panel linked their
+    ranges, and the map's click stream then refused every click as out of its range.
+    """
+    from test_ui_fixes import compute_map, fig
+
+    open_dashboard(page, dashboard_server, "?map_y_axis=r")
+    compute_map(page, 5, 4)
+    p = fig(page, "map_figure", 3.125, 0.95)  # grid: Λ 0.5…4 in 5, r 0.3…0.95 in 4
+    page.mouse.click(p["sx"], p["sy"])
+    page.wait_for_function("() => window.location.search.includes('lam=3.125')", timeout=20_000)
+    assert "r=0.95" in page.url
+    assert dashboard_server["log"].tracebacks() == []

@@ -18,11 +18,11 @@ from panel.io.location import Location
 
 from app.main import configure
 from app.session import Session
-from app.state import URL_KEYS
+from app.state import MAP_URL_KEYS, URL_KEYS
 
 configure()
-KEYS = sorted(URL_KEYS.values())
-NAMES = {v: k for k, v in URL_KEYS.items()}
+#: Every URL key: the state's and the Maps tab's settings'.
+KEYS = sorted([*URL_KEYS.values(), *MAP_URL_KEYS.values()])
 
 hostile = st.one_of(
     st.integers(4301, 6000).map(lambda n: "9" * n),                       # int() refuses these
@@ -42,11 +42,12 @@ def opened(search: str) -> Session:
 @given(key=st.sampled_from(KEYS), value=hostile)
 def test_any_hostile_value_draws_the_page_and_says_so(key, value):
     """One hostile value under any key: the page draws its run and a message names the key."""
-    s = opened("?" + urllib.parse.urlencode({key: value})).state
-    assert s.result is not None
-    where = NAMES[key]
-    assert where in s.messages or "url" in s.messages, (key, value[:20], s.messages)
-    text = s.messages.get(where, s.messages.get("url", ""))
+    session = opened("?" + urllib.parse.urlencode({key: value}))
+    assert session.state.result is not None
+    owner, where = session._owner(key)
+    said = {**session.state.messages, **owner.messages}
+    assert where in said or "url" in said, (key, value[:20], said)
+    text = said.get(where, said.get("url", ""))
     assert "URL" in text and len(text) < 400
 
 

@@ -18,7 +18,8 @@ import panel as pn
 import param
 
 from ..core import impacts_frame
-from ..state import PRESETS, ExplorerState, format_harmonics, parse_harmonics, preset_values
+from ..presets import PRESETS, preset_values
+from ..state import ExplorerState, format_harmonics, parse_harmonics
 from ..ui.plots import file_stem
 from ..ui.widgets import Field, _label_html, message
 

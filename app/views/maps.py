@@ -1,12 +1,14 @@
 """The Maps tab: regime and intensity maps over two parameters, and basins of attraction.
 
-A ``pn.viewable.Viewer`` over the state with its own request settings (:class:`MapSettings`:
-axes, ranges, points, periods, the field shown), whose bounds validate them. Compute runs
+A ``pn.viewable.Viewer`` over the state and the session's map request (:class:`MapSettings`:
+axes, ranges, points, periods, the field shown), whose bounds validate them; the request is
+in the URL beside the state, so a link opened on the Maps tab reopens its map
+(:meth:`MapsView.open_link`). Compute runs
 :func:`rattle_core.store.requests.run_map` as this session's ``map`` job (:mod:`app.work.jobs`): in a worker
 process, bounded in time, cancelled by Cancel, by a new request and when the session ends,
 from the disk cache when the same map ran before. Maps run on the server's cores, or on the
 Dask scheduler given on the server's command line (``rattle serve --scheduler``,
-:func:`set_scheduler`); no page can choose where the server connects.
+:func:`app.work.map_plan.set_scheduler`); no page can choose where the server connects.
 
 The map is a HoloViews ``Image`` whose colours follow the field shown: the regime colours for
 regimes, a log colour bar for the rattle intensity, a linear one for the other quantities.
@@ -30,47 +32,29 @@ import param
 from ..work import tasks
 from ..core import REGIME_CODES, excitation, paper_phi2_to_core, plan_map
 from ..state import ExplorerState, MapSettings
+from ..work.map_plan import (AXES, FIELDS, MAX_POINTS, MAX_WORK, PHYSICAL, RANGES, axis_label,
+                             request_key, scheduler)
 from ..work.threads import HV_LOCK, later
+from ..ui.job_panel import JobPanel
 from ..ui.labels import REGIME_COLOR, map_key, map_legend, text_html
 from ..ui.plots import TOOLS, HoloViewsPane, caption, file_stem, key_legend, save_as
 from ..ui.widgets import Choice, Field, message
-
-AXES = {"lam": "Λ", "r": "r", "j": "j", "h2": "H₂/H₁", "phi2": "φ₂ [°]",
-        "rpm": "engine speed [rpm]", "drag_torque": "drag torque C [N·m]"}
-PHYSICAL = ("rpm", "drag_torque")
-RANGES = {"lam": (0.5, 4.0), "r": (0.3, 0.95), "j": (2.0, 16.0), "h2": (0.0, 1.0),
-          "phi2": (0.0, 360.0), "rpm": (800.0, 6000.0), "v0": (-3.0, 3.0)}
-FIELDS = {"regime": "regime", "intensity": "rattle intensity Σ Ĩ² per period",
-          "period": "period (forcing periods)", "lyapunov": "Lyapunov exponent",
-          "stick_fraction": "stick fraction"}
-MAX_POINTS = 100_000
-MAX_WORK = 2e7  # points × (transient + record): about a minute on two cores
-_scheduler = ""
-
-
-def set_scheduler(address: str | None) -> None:
-    """Where every session's maps run: ``""`` (the server's cores) or a Dask scheduler address."""
-    global _scheduler
-    _scheduler = address or ""
-
-
-def scheduler() -> str:
-    return _scheduler
-
 
 class MapsView(pn.viewable.Viewer):
     """The Maps tab of one session."""
 
     state = param.ClassSelector(class_=ExplorerState)
     jobs = param.Parameter()
+    settings = param.ClassSelector(class_=MapSettings, default=None,
+                                   doc="the request (the session's, in the URL; a new one if None)")
     revision = param.Integer(0)
 
     def __init__(self, **params: Any):
         super().__init__(**params)
-        self.settings = m = MapSettings()
+        if self.settings is None:
+            self.settings = MapSettings()
+        m = self.settings
         self.result: Any = None
-        self.job: Any = None
-        self._request: dict | None = None
         self._figure = lambda: None
         self._generation = 0
         self._stem, self.overlays = "rattle_map", []  # overlays: other views' (add_overlay)
@@ -80,26 +64,38 @@ class MapsView(pn.viewable.Viewer):
         self.state.param.watch(self._on_result, "result")
         self.compute_button = pn.widgets.Button(label="Compute", color="primary",
                                                 css_classes=["map-compute"], sizing_mode="stretch_width")
-        self.cancel_button = pn.widgets.Button(label="Cancel", disabled=True, css_classes=["map-cancel"],
-                                               sizing_mode="stretch_width")
+        # the map's job: its progress, Cancel and status (``map-progress``, ``-cancel``, ``-status``)
+        self.run = JobPanel(self.jobs, "map", "map")
+        self.cancel_button, self.progress, self.status = (self.run.cancel_button, self.run.progress,
+                                                          self.run.status)
+        self.cancel_button.sizing_mode = "stretch_width"
         self.compute_button.on_click(lambda e: self.compute())
         self.cancel_button.on_click(lambda e: self.cancel("Cancelled."))
-        self.progress = pn.indicators.Progress(value=0, max=100, visible=False, bar_color="info",
-                                               height=14, sizing_mode="stretch_width", css_classes=["map-progress"])
-        self.status = pn.pane.HTML(text_html("No map yet: choose the axes and press Compute."),
-                                   css_classes=["map-status"], sizing_mode="stretch_width")
+        self.run.say("No map yet: choose the axes and press Compute.")
         self.legend = pn.pane.HTML("", css_classes=["map-legend"], sizing_mode="stretch_width")
         self.download = pn.widgets.FileDownload(callback=self._csv, filename="map.csv", label="Map as CSV",
                                                 color="success", disabled=True,
                                                 css_classes=["map-download"], sizing_mode="stretch_width")
-        self.pane = HoloViewsPane(self._plot(), css_classes=["map-plot"])
+        # Panel links the ranges of plots whose axes share a name ("x", "y") across the page;
+        # linked, the map would take another plot's range while its click stream still
+        # clipped taps against its own, and every click was dropped as out of range
+        self.pane = HoloViewsPane(self._plot(), css_classes=["map-plot"], linked_axes=False)
         # a new colour scale (regimes, log intensity, linear) needs a plot of its own
         m.param.watch(lambda e: setattr(self.pane, "object", self._plot()), "field")
-        self._choices = {n: Choice(m, n, {_axis_label(a): a for a in self._axes()}, select=True,
+        self._choices = {n: Choice(m, n, {axis_label(a): a for a in self._axes()}, select=True,
                                    sizing_mode="stretch_width") for n in ("x_axis", "y_axis")}
-        self._field = Choice(m, "field", {v: k for k, v in FIELDS.items()}, select=True, width=300)
-        if self.state.units:  # in physical units a map runs against engine speed and drag torque
+        self._field = Choice(m, "field", self._fields(), select=True, width=300)
+        default = (m.param.x_axis.default, m.param.y_axis.default)
+        if self.state.units and m.kind == "regime" and (m.x_axis, m.y_axis) == default:
+            # in physical units a map runs against engine speed and drag torque (unless the
+            # link chose other axes)
             self._set_axes("rpm", "drag_torque")
+        for a in ("x", "y"):  # a link naming an axis but not its range: the axis's own range
+            start, stop = f"{a}_start", f"{a}_stop"
+            if ((getattr(m, f"{a}_axis") != m.param[f"{a}_axis"].default)
+                    and (getattr(m, start), getattr(m, stop)) == (m.param[start].default, m.param[stop].default)):
+                lo, hi = self._range(getattr(m, f"{a}_axis"))
+                m.param.update({start: lo, stop: hi})
 
     def __panel__(self):
         m = self.settings
@@ -111,8 +107,8 @@ class MapsView(pn.viewable.Viewer):
                                     Field(m, f"{a}_num", label="points", slider=False, css=f"map-{a}-num"),
                                     sizing_mode="stretch_width"),
                              message(self.state, f"map-{a}"), sizing_mode="stretch_width", margin=0)
-        where = (f"Maps run on the Dask scheduler {_scheduler} (set when the server started)."
-                 if _scheduler else "Maps run on this server's cores.")
+        where = (f"Maps run on the Dask scheduler {scheduler()} (set when the server started)."
+                 if scheduler() else "Maps run on this server's cores.")
         controls = pn.Column(
             Choice(m, "kind", {"Regimes over two parameters": "regime", "Basins over (x₀, ẋ₀)": "basin"},
                    sizing_mode="stretch_width"),
@@ -154,15 +150,19 @@ class MapsView(pn.viewable.Viewer):
 
     def _set_axes(self, x: str, y: str) -> None:
         for n, v in (("x_axis", x), ("y_axis", y)):
-            self._choices[n].widget.options = {_axis_label(a): a for a in self._axes()}
+            self._choices[n].widget.options = {axis_label(a): a for a in self._axes()}
         self.settings.param.update(x_axis=x, y_axis=y)
 
     def _on_kind(self, event) -> None:
         basin = event.new == "basin"
         self._set_axes(*(("x0", "v0") if basin else ("lam", "phi2")))
-        self._field.widget.options = {v: k for k, v in FIELDS.items()} if not basin else {
-            "attractor reached": "attractor", **{v: k for k, v in FIELDS.items()}}
+        self._field.widget.options = self._fields()
         self.settings.field = "attractor" if basin else "regime"
+
+    def _fields(self) -> dict[str, str]:
+        """The fields a map of the settings' kind can show (label → field)."""
+        fields = {v: k for k, v in FIELDS.items()}
+        return {"attractor reached": "attractor", **fields} if self.settings.kind == "basin" else fields
 
     def _on_units(self, event) -> None:
         if self.settings.kind == "regime":
@@ -204,54 +204,64 @@ class MapsView(pn.viewable.Viewer):
             return None
         return {"run": run, "params": run.params, "phys": run.phys, "x_name": m.x_axis, "y_name": m.y_axis,
                 "x_values": xv, "y_values": yv, "core": core, "plan": plan,
-                "transient": m.transient, "record": m.record, "key": _key(run.params, plan)}
+                "transient": m.transient, "record": m.record, "key": request_key(run.params, plan)}
 
     def compute(self) -> bool:
         """Start the map the settings ask for (it replaces the one running)."""
         req = self.request()
         if req is None:
             return False
-        self._request = req
-        self.progress.param.update(value=0, visible=True)
-        self.cancel_button.disabled = False
         n = req["x_values"].size * req["y_values"].size
-        where = f"on Dask ({_scheduler})" if _scheduler else "on this server's cores"
-        self.status.object = text_html(f"Computing {req['x_values'].size} × {req['y_values'].size} "
-                                       f"= {n} points {where}…")
+        where = f"on Dask ({scheduler()})" if scheduler() else "on this server's cores"
         args = (req["params"], req["phys"], req["x_name"], req["core"]["x"], req["y_name"],
-                req["core"]["y"], req["transient"], req["record"], _scheduler)
-        self.job = self.jobs.submit("map", tasks.regime_map, args, time_limit=300.0,
-                                     on_progress=lambda f: self._progress(req, f),
-                                     on_done=lambda r: self._done(req, r),
-                                     on_error=lambda msg: self._error(req, msg))
-        return True
+                req["core"]["y"], req["transient"], req["record"], scheduler())
+        self.run.submit(req["key"], tasks.regime_map, args,
+                        f"Computing {req['x_values'].size} × {req['y_values'].size} = {n} points "
+                        f"{where}…", 300.0, on_done=lambda r: self._done(req, r),
+                        on_error=self._error)
+        return self.run.key is not None
+
+    @property
+    def job(self) -> Any:
+        """The map's job while it is queued or running."""
+        return self.run.job
+
+    def open_link(self) -> None:
+        """The page opened on the Maps tab: compute the link's map if it is no heavier than the
+        default map (a disk-cached map is read, not recomputed); a heavier one waits for Compute,
+        so that a link cannot make the server work minutes for each visitor."""
+        if self.state.result is None:  # the first run is still in a worker: once it is in
+            def once(event) -> None:
+                if event.new is not None:
+                    self.state.param.unwatch(watcher)
+                    self.open_link()
+            watcher = self.state.param.watch(once, "result")
+            return
+        req = self.request()
+        if req is None:
+            self.run.say("This link's map cannot run: see the message above.")
+            return
+        m = MapSettings
+        light = (m.param.x_num.default * m.param.y_num.default
+                 * (m.param.transient.default + m.param.record.default))
+        nx, ny = req["x_values"].size, req["y_values"].size
+        periods = req["transient"] + req["record"]
+        if nx * ny * periods <= light:
+            self.compute()
+        else:
+            self.run.say(
+                f"This link asks for a map of {nx} × {ny} = {nx * ny} points over {periods} periods "
+                "each, more than a link computes by itself: press Compute to run it.")
 
     def cancel(self, text: str | None = None) -> None:
-        if self.job is not None:
-            self.job.cancel()
-            self.job = None
-        self._request = None
-        self.progress.visible = False
-        self.cancel_button.disabled = True
-        if text:
-            self.status.object = text_html(text)
+        """Stop the map's job (``text``, if given, replaces the status)."""
+        self.run.stop(text)
 
-    def _progress(self, req: dict, fraction: float) -> None:
-        if req is self._request:
-            self.progress.value = int(100 * fraction)
-
-    def _error(self, req: dict, msg: str) -> None:
-        if req is self._request:
-            self.cancel(None)
-            self.status.object = text_html("No new map: see the message above.")
-            self.state.say("map-run", f"The map could not be computed: {msg}")
+    def _error(self, msg: str) -> None:
+        self.run.say("No new map: see the message above.")
+        self.state.say("map-run", f"The map could not be computed: {msg}")
 
     def _done(self, req: dict, result: Any) -> None:
-        if req is not self._request:
-            return
-        self.job = None
-        self.progress.visible = False
-        self.cancel_button.disabled = True
         result.x_values, result.y_values = req["x_values"], req["y_values"]
         self.result, self._shown = result, req
         self.download.param.update(disabled=False, filename=file_stem(self.state.result, f"map-{req['x_name']}-{req['y_name']}") + ".csv")
@@ -358,12 +368,12 @@ class MapsView(pn.viewable.Viewer):
         how = "read from the disk cache" if r.from_cache else "computed"
         text = f"{'Basins' if r.kind == 'basin' else 'Map'} of {r.x_values.size} × {r.y_values.size} = {n} points, {how}."
         try:
-            stale = _key(run.params, req["plan"]) != req["key"]
+            stale = request_key(run.params, req["plan"]) != req["key"]
         except ValueError:
             stale = True
         if stale:
             text += " For other parameters than the current ones: press Compute to update."
-        self.status.object = text_html(text)
+        self.run.say(text)
         self.legend.object = map_legend(r)
 
     # ----- clicks -------------------------------------------------------------------------------
@@ -395,16 +405,3 @@ class MapsView(pn.viewable.Viewer):
 
     def _csv(self) -> io.StringIO:
         return io.StringIO("" if self.result is None else self.result.table().to_csv(index=False))
-
-
-def _axis_label(name: str) -> str:
-    return {"x0": "x₀ at t = 0", "v0": "ẋ₀ at t = 0"}.get(name, AXES.get(name, name))
-
-
-def _key(params: Any, plan: tuple) -> str:
-    """What a map depends on besides its axes; a map is stale when this changes."""
-    if plan[0] == "map":
-        params = params.with_value(plan[1], 1.0).with_value(plan[3], 1.0)
-    elif plan[0] == "flat":
-        params = params.with_value(plan[1], 1.0)
-    return repr(params.canonical())
