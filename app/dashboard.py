@@ -22,15 +22,25 @@ from .views.gearbox import GearboxView
 from .views.maps import MapsView
 from .views.motion import MotionView
 from .views.noise import NoiseView
+from .views.present import PresentView
 from .work.threads import HV_LOCK
 from .session import Session
 from .views.sensitivity import SensitivityView
 from .views.sound import SoundView
 from .views.time_history import TimeHistoryView
 from .views.units import UnitsView
+from .ui.present import PAGE_CSS, PANE_CSS, PRESENTING, mark
 from .ui.widgets import message
 
 SIDEBAR_WIDTH = 380
+#: While presenting, the Explorer tab lays the time history and the section side by side.
+EXPLORER_CSS = f"""
+:host(.{PRESENTING}) {{ flex-direction: row !important; flex-wrap: wrap !important;
+                        align-items: flex-start !important; }}
+:host(.{PRESENTING}) > * {{ flex: 1 1 100% !important; }}
+:host(.{PRESENTING}) > .th-cell, :host(.{PRESENTING}) > .section-row {{
+    flex: 1 1 40% !important; width: auto !important; min-width: 0 !important; }}
+"""
 #: Every live dashboard (weakly held): a closed session's must disappear from here.
 LIVE: "weakref.WeakSet[Dashboard]" = weakref.WeakSet()
 
@@ -66,23 +76,45 @@ class Dashboard:
                       self.section, self.motion,
                       self.diagram, self.continuation, self.curve, self.sound, self.maps,
                       self.atlas, self.gearbox, self.sensitivity]
-        explorer = pn.Column(
-            self.regime, self.noise,
-            self.time_history, self.units.table,
-            self.motion,
-            pn.Row(self.section, pn.Column(self.diagram, self.continuation, self.curve,
-                                           sizing_mode="stretch_width"),
-                   sizing_mode="stretch_width"),
-            self.sensitivity, self.sound, sizing_mode="stretch_width")
+        self.present = PresentView(state=s)
+        self.views.append(self.present)
+        self.th_cell = pn.Column(self.time_history, css_classes=["th-cell"],
+                                 sizing_mode="stretch_width", margin=0)
+        self.diagrams = pn.Column(self.diagram, self.continuation, self.curve,
+                                  sizing_mode="stretch_width")
+        self.section_row = pn.Row(self.section, self.diagrams, css_classes=["section-row"],
+                                  sizing_mode="stretch_width")
+        #: What a lecture does not need: hidden while presenting.
+        self.normal_only = [pn.Column(v, sizing_mode="stretch_width", margin=0)
+                            for v in (self.noise, self.units.table, self.motion,
+                                      self.sensitivity, self.sound)] + [self.diagrams]
+        noise, table, motion, sensitivity, sound = self.normal_only[:5]
+        self.explorer = pn.Column(
+            self.regime, noise,
+            self.th_cell, table, motion, self.section_row, sensitivity, sound,
+            sizing_mode="stretch_width", css_classes=["explorer"], stylesheets=[EXPLORER_CSS])
         maps_tab = pn.Column(self.maps, self.atlas, sizing_mode="stretch_width")
-        self.tabs = pn.Tabs(("Explorer", explorer), ("Maps", maps_tab), ("Gearbox", self.gearbox),
-                            dynamic=True,
-                            sizing_mode="stretch_width", css_classes=["main-tabs"])
+        self.tabs = pn.Tabs(("Explorer", self.explorer), ("Maps", maps_tab),
+                            ("Gearbox", self.gearbox), dynamic=True, sizing_mode="stretch_width",
+                            css_classes=["main-tabs"], stylesheets=[PANE_CSS])
         self.layout = pn.template.BootstrapTemplate(
             title="Rattle Explorer: gear rattle, exactly",
             sidebar=[self.controls, self.units], sidebar_width=SIDEBAR_WIDTH,
             main=[message(s, "url"), message(s, "global"), self.tabs],
+            header=[self.present],
             header_background="#2c3e50")
+        self.layout.config.raw_css.append(PAGE_CSS)
+        s.param.watch(self._present, "present")
+        self._present()
+
+    def _present(self, *_: Any) -> None:
+        """Presentation mode on or off: the same views, another look (:mod:`app.ui.present`)."""
+        on = self.state.present
+        if on and self.tabs.active != 0:
+            self.tabs.active = 0  # the lecture's plots are on the Explorer tab
+        mark([self.explorer, self.tabs], on)
+        for part in self.normal_only:
+            part.visible = not on
 
     def destroy(self) -> None:
         """The session closed: cancel its work and let go of its results."""

@@ -161,6 +161,8 @@ class ExplorerState(Said):
     bif = param.Selector(default="lam", objects=["lam", "phi2", "rpm"], label="diagram",
                          doc="bifurcation diagram against Λ, φ₂ or (physical units) engine speed")
     overlays = Flag(True, label="overlays", doc="contact boundary Λ_c and 2πn/Λ")
+    present = Flag(False, label="presentation mode",
+                   doc="large fonts, the time history and the section side by side, no sidebar")
     # ----- physical units --------------------------------------------------------------------
     units = Flag(False, label="physical units")
     inertia = param.Number(_EX.inertia, bounds=U.INERTIA_RANGE, inclusive_bounds=OPEN,
