@@ -42,7 +42,7 @@ PANE_CSS = f"""
 
 #: Font sizes of a figure: normal, and while presenting (≥ 1.4 × each).
 FONTS = {False: {"axis": "13px", "ticks": "11px", "title": "10pt", "legend": "13px"},
-         True: {"axis": "20px", "ticks": "17px", "title": "13pt", "legend": "17px"}}
+         True: {"axis": "20px", "ticks": "17px", "title": "13pt", "legend": "19px"}}
 
 
 def figure_fonts(fig: Any, present: bool, title: str = "10pt") -> None:

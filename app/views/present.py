@@ -14,7 +14,6 @@ import panel as pn
 import param
 
 from ..state import ExplorerState
-from ..ui.help import tooltip
 from ..ui.present import PAGE_MARK, mark
 from ..ui.widgets import set_value
 
@@ -31,14 +30,13 @@ class PresentView(pn.viewable.Viewer):
     def __init__(self, **params: Any):
         super().__init__(**params)
         s = self.state
-        self.button = pn.widgets.Button(name="Present", button_type="light", width=170,
+        self.button = pn.widgets.Button(label="Present", color="light", width=170,
                                         css_classes=["present-toggle"], align="center",
                                         description="Large fonts and plots for a projector "
                                                     "(present=true in the URL)")
         self.button.on_click(lambda e: set_value(s, "present", not s.present))
         self.slider = {n: self._slider(n) for n in ESSENTIAL}
-        self.sliders = pn.Row(*[pn.Row(w, tooltip(n), margin=0) if n == "lam" else w
-                                for n, w in self.slider.items()],
+        self.sliders = pn.Row(*self.slider.values(),
                               css_classes=["present-sliders"], visible=s.present, margin=(0, 10))
         self.header = pn.Row(self.button, self.sliders, margin=0)
         s.param.watch(self._follow, "present")
@@ -52,7 +50,7 @@ class PresentView(pn.viewable.Viewer):
     def _slider(self, name: str) -> pn.widgets.FloatSlider:
         p, v = self.state.param[name], getattr(self.state, name)
         lo, hi = p.softbounds
-        w = pn.widgets.FloatSlider(name=p.label, start=min(lo, v), end=max(hi, v), step=p.step,
+        w = pn.widgets.FloatSlider(label=p.label, start=min(lo, v), end=max(hi, v), step=p.step,
                                    value=v, width=230, css_classes=[f"present-{name}"])
         w.param.watch(lambda e: set_value(self.state, name, round(float(e.new), 10)),
                       "value_throttled")
@@ -65,6 +63,6 @@ class PresentView(pn.viewable.Viewer):
 
     def _follow(self, *_: Any) -> None:
         on = self.state.present
-        self.button.name = "Exit presentation" if on else "Present"
+        self.button.label = "Exit presentation" if on else "Present"
         mark([self.header], on, PAGE_MARK)
         self.sliders.visible = on

@@ -98,13 +98,13 @@ class TimeHistoryView(pn.viewable.Viewer):
         """Presentation mode: a taller figure, larger fonts."""
         on = self.state.present
         figure_fonts(self.fig, on)
-        # beside a figure half the page wide, the legend goes below it, in three columns
+        # beside a figure half the page wide, the legend goes below it, in two columns
         legend = self.fig.legend[0]
         side, other = ("below", "right") if on else ("right", "below")
         if legend not in getattr(self.fig, side):
             setattr(self.fig, other, [m for m in getattr(self.fig, other) if m is not legend])
             setattr(self.fig, side, [*getattr(self.fig, side), legend])
-            legend.ncols = 3 if on else 1
+            legend.ncols = 2 if on else 1
         if self.fig.height != HEIGHT[on]:
             self.fig.height = HEIGHT[on]
 
