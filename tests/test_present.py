@@ -107,8 +107,8 @@ def test_the_presenting_sliders_move_the_state(dash):
     with param.edit_constant(slider):  # as the page sets it when the handle is released
         slider.value_throttled = 2.5
     assert dash.state.lam == pytest.approx(2.5)
-    dash.state.lam = 3.1
-    assert slider.value == pytest.approx(3.1)
+    dash.state.lam = 3.123456789012345  # followed exactly: the slider does not round it back
+    assert slider.value == dash.state.lam == 3.123456789012345
 
 
 # ----- explanations ------------------------------------------------------------------------------

@@ -30,6 +30,7 @@ class PresentView(pn.viewable.Viewer):
     def __init__(self, **params: Any):
         super().__init__(**params)
         s = self.state
+        self._syncing = False
         self.button = pn.widgets.Button(label="Present", color="light", width=170,
                                         css_classes=["present-toggle"], align="center",
                                         description="Large fonts and plots for a projector "
@@ -52,14 +53,22 @@ class PresentView(pn.viewable.Viewer):
         lo, hi = p.softbounds
         w = pn.widgets.FloatSlider(label=p.label, start=min(lo, v), end=max(hi, v), step=p.step,
                                    value=v, width=230, css_classes=[f"present-{name}"])
-        w.param.watch(lambda e: set_value(self.state, name, round(float(e.new), 10)),
-                      "value_throttled")
+        w.param.watch(lambda e: self._on_slider(name, e.new), "value_throttled")
         return w
+
+    def _on_slider(self, name: str, value: Any) -> None:
+        if not self._syncing and value is not None:
+            set_value(self.state, name, round(float(value), 10))
 
     def _follow_value(self, event) -> None:
         w, (lo, hi) = self.slider[event.name], self.state.param[event.name].softbounds
         v = event.new
-        w.param.update(start=min(lo, v), end=max(hi, v), value=v)
+        # Panel copies a value set here into value_throttled: that is no move of the user's
+        self._syncing = True
+        try:
+            w.param.update(start=min(lo, v), end=max(hi, v), value=v)
+        finally:
+            self._syncing = False
 
     def _follow(self, *_: Any) -> None:
         on = self.state.present
