@@ -4,6 +4,10 @@
 background jobs) and one ``pn.viewable.Viewer`` per part of the page, each given the state
 (and, if it runs background work, the session's jobs). The views never refer to each other:
 they meet only in the state. :meth:`Dashboard.destroy` runs when the session closes.
+
+Presentation mode (``state.present``) keeps every view and model: the header's button marks
+the page (the template's stylesheet hides the sidebar), the Explorer's stylesheet lays the time
+history and the section side by side, and the parts a lecture does not need are hidden.
 """
 from __future__ import annotations
 
@@ -72,26 +76,25 @@ class Dashboard:
         self.maps = MapsView(state=s, jobs=jobs)
         self.atlas = AtlasView(state=s, jobs=jobs, maps=self.maps)
         self.gearbox = GearboxView(state=s, jobs=jobs)
+        self.present = PresentView(state=s)
         self.views = [self.controls, self.units, self.regime, self.noise, self.time_history,
                       self.section, self.motion,
                       self.diagram, self.continuation, self.curve, self.sound, self.maps,
-                      self.atlas, self.gearbox, self.sensitivity]
-        self.present = PresentView(state=s)
-        self.views.append(self.present)
-        self.th_cell = pn.Column(self.time_history, css_classes=["th-cell"],
-                                 sizing_mode="stretch_width", margin=0)
+                      self.atlas, self.gearbox, self.sensitivity, self.present]
         self.diagrams = pn.Column(self.diagram, self.continuation, self.curve,
                                   sizing_mode="stretch_width")
-        self.section_row = pn.Row(self.section, self.diagrams, css_classes=["section-row"],
-                                  sizing_mode="stretch_width")
+        # while presenting, the explorer's stylesheet lays these two cells side by side
+        th_cell = pn.Column(self.time_history, css_classes=["th-cell"],
+                            sizing_mode="stretch_width", margin=0)
+        section_row = pn.Row(self.section, self.diagrams, css_classes=["section-row"],
+                             sizing_mode="stretch_width")
+        noise, table, motion, sensitivity, sound = (
+            pn.Column(v, sizing_mode="stretch_width", margin=0)
+            for v in (self.noise, self.units.table, self.motion, self.sensitivity, self.sound))
         #: What a lecture does not need: hidden while presenting.
-        self.normal_only = [pn.Column(v, sizing_mode="stretch_width", margin=0)
-                            for v in (self.noise, self.units.table, self.motion,
-                                      self.sensitivity, self.sound)] + [self.diagrams]
-        noise, table, motion, sensitivity, sound = self.normal_only[:5]
+        self.normal_only = [noise, table, motion, sensitivity, sound, self.diagrams]
         self.explorer = pn.Column(
-            self.regime, noise,
-            self.th_cell, table, motion, self.section_row, sensitivity, sound,
+            self.regime, noise, th_cell, table, motion, section_row, sensitivity, sound,
             sizing_mode="stretch_width", css_classes=["explorer"], stylesheets=[EXPLORER_CSS])
         maps_tab = pn.Column(self.maps, self.atlas, sizing_mode="stretch_width")
         self.tabs = pn.Tabs(("Explorer", self.explorer), ("Maps", maps_tab),

@@ -5,6 +5,8 @@
 * :func:`regime_badge` is the one place that reads the sticking details a ``Classification``
   may carry (``sticking``, ``loop_amplification``); it works with classifications that have
   them and with those that do not.
+* :func:`regime_legend_html` and :func:`what_you_see` explain regimes in the vocabulary's own
+  words (its meanings and rules, which are ``docs/model.md``'s table), never in a copy of them.
 * Every piece of text that may hold user or URL input reaches the page through
   :func:`message_html` or :func:`text_html`, which escape it: no user text is ever HTML.
 """

@@ -125,7 +125,8 @@ class SectionView(pn.viewable.Viewer):
         point = None if run is None else self._start_point(run, s.section, s.x0, s.v0, s.t0)
         marker = hv.Points([point] if point else [], self._kdims).opts(
             marker="x", size=14, line_width=3, color=MARK_COLOR)
-        cloud = hv.Points(self._xy, self._kdims).opts(size=4, color="#1f5fa8", alpha=0.8)
+        cloud = hv.Points(self._xy, self._kdims).opts(size=7 if s.present else 4, color="#1f5fa8",
+                                                      alpha=0.8)
         return self.zoom.apply(cloud * marker, *self._lims)
 
     def _raster(self, dense_revision: int = 0, x_range: Any = None, y_range: Any = None) -> hv.RGB:

@@ -19,6 +19,8 @@ from ..ui.widgets import set_value
 
 #: The sliders kept while presenting.
 ESSENTIAL = ("lam", "phi2")
+#: Their titles as large as the presenting figures' tick labels.
+SLIDER_CSS = ".bk-slider-title { font-size: 17px !important; }"
 
 
 class PresentView(pn.viewable.Viewer):
@@ -52,7 +54,8 @@ class PresentView(pn.viewable.Viewer):
         p, v = self.state.param[name], getattr(self.state, name)
         lo, hi = p.softbounds
         w = pn.widgets.FloatSlider(label=p.label, start=min(lo, v), end=max(hi, v), step=p.step,
-                                   value=v, width=230, css_classes=[f"present-{name}"])
+                                   value=v, width=230, css_classes=[f"present-{name}"],
+                                   stylesheets=[SLIDER_CSS])
         w.param.watch(lambda e: self._on_slider(name, e.new), "value_throttled")
         return w
 
