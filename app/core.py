@@ -22,7 +22,8 @@ from rattle_core.analysis.sound import (DEFAULT_EXCITATION_HZ, DEFAULT_MODES,
                                         DEFAULT_SAMPLE_RATE, DEFAULT_TAIL, EXCITATION_HZ_RANGE,
                                         HousingMode, parse_modes, synthesize, write_wav)
 from rattle_core.analysis.vocabulary import (CODIM2_MARKERS, CURVE_STYLES, REGIME_CODES,
-                                             REGIME_COLOURS, REGIME_MEANING, physical_table)
+                                             REGIME_COLOURS, REGIME_MEANING, REGIME_RULES,
+                                             physical_table)
 from rattle_core.batch.plan import PHYSICAL_AXES as MAP_PHYSICAL_AXES
 from rattle_core.batch.plan import plan_map, point_params
 from rattle_core.model.excitation import TWO_PI, excitation
@@ -61,7 +62,7 @@ __all__ = [
     "CONTINUATION_VERSION", "ContinuationResult", "SOLVER_VERSION", "MAX_T0", "continue_orbit",
     "find_orbit", "atomic_savez", "cached", "cached_sweep", "find_asset", "list_assets", "load_asset", "contact_boundary", "excitation",
     "units", "PhysicalParams", "REGIMES", "TWO_PI", "MAP_PHYSICAL_AXES", "REGIME_CODES",
-    "REGIME_COLOURS", "plan_map", "point_params", "run_map", "PAPER_CASES",
+    "REGIME_COLOURS", "REGIME_RULES", "plan_map", "point_params", "run_map", "PAPER_CASES",
     "core_phi2_to_paper", "paper_phi2_to_core", "AMPLITUDE_RANGE", "J_RANGE", "LAM_RANGE",
     "MAX_HARMONICS", "PHASE_RANGE_DEG", "R_RANGE", "V_STICK_RANGE", "check_range",
     "core_to_paper_phases", "paper_to_core_phases", "DEFAULT_EXCITATION_HZ", "DEFAULT_MODES",

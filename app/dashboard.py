@@ -4,6 +4,10 @@
 background jobs) and one ``pn.viewable.Viewer`` per part of the page, each given the state
 (and, if it runs background work, the session's jobs). The views never refer to each other:
 they meet only in the state. :meth:`Dashboard.destroy` runs when the session closes.
+
+Presentation mode (``state.present``) keeps every view and model: the header's button marks
+the page (the template's stylesheet hides the sidebar), the Explorer's stylesheet lays the time
+history and the section side by side, and the parts a lecture does not need are hidden.
 """
 from __future__ import annotations
 
@@ -23,17 +27,27 @@ from .views.maps import MapsView
 from .views.motion import MotionView
 from .views.noise import NoiseView
 from .views.pin import PinView
+from .views.present import PresentView
 from .work.threads import HV_LOCK
 from .session import Session
 from .views.sensitivity import SensitivityView
 from .views.sound import SoundView
 from .views.time_history import TimeHistoryView
 from .views.units import UnitsView
+from .ui.present import PAGE_CSS, PANE_CSS, PRESENTING, mark
 from .ui.widgets import message
 
 SIDEBAR_WIDTH = 380
 #: The main tabs, in order, as the state's ``tab`` (and the URL) names them.
 TABS = ("explorer", "maps", "gearbox")
+#: While presenting, the Explorer tab lays the time history and the section side by side.
+EXPLORER_CSS = f"""
+:host(.{PRESENTING}) {{ flex-direction: row !important; flex-wrap: wrap !important;
+                        align-items: flex-start !important; }}
+:host(.{PRESENTING}) > * {{ flex: 1 1 100% !important; }}
+:host(.{PRESENTING}) > .th-cell, :host(.{PRESENTING}) > .section-row {{
+    flex: 1 1 40% !important; width: auto !important; min-width: 0 !important; }}
+"""
 #: Every live dashboard (weakly held): a closed session's must disappear from here.
 LIVE: "weakref.WeakSet[Dashboard]" = weakref.WeakSet()
 
@@ -66,23 +80,32 @@ class Dashboard:
         self.maps = MapsView(state=s, jobs=jobs, settings=self.session.map_settings)
         self.atlas = AtlasView(state=s, jobs=jobs, maps=self.maps)
         self.gearbox = GearboxView(state=s, jobs=jobs)
+        self.present = PresentView(state=s)
         self.views = [self.controls, self.units, self.regime, self.pin, self.noise,
-                      self.time_history,
-                      self.section, self.motion,
+                      self.time_history, self.section, self.motion,
                       self.diagram, self.continuation, self.curve, self.sound, self.maps,
-                      self.atlas, self.gearbox, self.sensitivity]
-        explorer = pn.Column(
-            self.regime, self.pin, self.noise,
-            self.time_history, self.units.table,
-            self.motion,
-            pn.Row(self.section, pn.Column(self.diagram, self.continuation, self.curve,
-                                           sizing_mode="stretch_width"),
-                   sizing_mode="stretch_width"),
-            self.sensitivity, self.sound, sizing_mode="stretch_width")
+                      self.atlas, self.gearbox, self.sensitivity, self.present]
+        self.diagrams = pn.Column(self.diagram, self.continuation, self.curve,
+                                  sizing_mode="stretch_width")
+        # while presenting, the explorer's stylesheet lays these two cells side by side
+        th_cell = pn.Column(self.time_history, css_classes=["th-cell"],
+                            sizing_mode="stretch_width", margin=0)
+        section_row = pn.Row(self.section, self.diagrams, css_classes=["section-row"],
+                             sizing_mode="stretch_width")
+        pin, noise, table, motion, sensitivity, sound = (
+            pn.Column(v, sizing_mode="stretch_width", margin=0)
+            for v in (self.pin, self.noise, self.units.table, self.motion, self.sensitivity,
+                      self.sound))
+        #: What a lecture does not need: hidden while presenting (a pinned run stays drawn).
+        self.normal_only = [pin, noise, table, motion, sensitivity, sound, self.diagrams]
+        self.explorer = pn.Column(
+            self.regime, pin, noise, th_cell, table, motion, section_row, sensitivity, sound,
+            sizing_mode="stretch_width", css_classes=["explorer"], stylesheets=[EXPLORER_CSS])
         maps_tab = pn.Column(self.maps, self.atlas, sizing_mode="stretch_width")
-        self.tabs = pn.Tabs(("Explorer", explorer), ("Maps", maps_tab), ("Gearbox", self.gearbox),
-                            dynamic=True, active=TABS.index(s.tab),
-                            sizing_mode="stretch_width", css_classes=["main-tabs"])
+        self.tabs = pn.Tabs(("Explorer", self.explorer), ("Maps", maps_tab),
+                            ("Gearbox", self.gearbox), dynamic=True, active=TABS.index(s.tab),
+                            sizing_mode="stretch_width", css_classes=["main-tabs"],
+                            stylesheets=[PANE_CSS])
         # the active tab is the state's ``tab`` (a URL key): a shared link opens on its tab
         self.tabs.param.watch(self._on_tab, "active")
         s.param.watch(self._on_state_tab, "tab")
@@ -92,7 +115,20 @@ class Dashboard:
             title="Rattle Explorer: gear rattle, exactly",
             sidebar=[self.controls, self.units], sidebar_width=SIDEBAR_WIDTH,
             main=[message(s, "url"), message(s, "tab"), message(s, "global"), self.tabs],
+            header=[self.present],
             header_background="#2c3e50")
+        self.layout.config.raw_css.append(PAGE_CSS)
+        s.param.watch(self._present, "present")
+        self._present()
+
+    def _present(self, *_: Any) -> None:
+        """Presentation mode on or off: the same views, another look (:mod:`app.ui.present`)."""
+        on = self.state.present
+        if on and self.tabs.active != 0:
+            self.tabs.active = 0  # the lecture's plots are on the Explorer tab
+        mark([self.explorer, self.tabs], on)
+        for part in self.normal_only:
+            part.visible = not on
 
     def _on_tab(self, event) -> None:
         if 0 <= event.new < len(TABS):

@@ -167,6 +167,8 @@ class ExplorerState(Said):
     overlays = Flag(True, label="overlays", doc="contact boundary Λ_c and 2πn/Λ")
     tab = param.Selector(default="explorer", objects=["explorer", "maps", "gearbox"], label="tab",
                          doc="the page's main tab, so that a shared link opens on it")
+    present = Flag(False, label="presentation mode",
+                   doc="large fonts, the time history and the section side by side, no sidebar")
     # ----- physical units --------------------------------------------------------------------
     units = Flag(False, label="physical units")
     inertia = param.Number(_EX.inertia, bounds=U.INERTIA_RANGE, inclusive_bounds=OPEN,

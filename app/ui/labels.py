@@ -5,6 +5,8 @@
 * :func:`regime_badge` is the one place that reads the sticking details a ``Classification``
   may carry (``sticking``, ``loop_amplification``); it works with classifications that have
   them and with those that do not.
+* :func:`regime_legend_html` and :func:`what_you_see` explain regimes in the vocabulary's own
+  words (its meanings and rules, which are ``docs/model.md``'s table), never in a copy of them.
 * Every piece of text that may hold user or URL input reaches the page through
   :func:`message_html` or :func:`text_html`, which escape it: no user text is ever HTML.
 """
@@ -16,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core import REGIME_CODES, REGIME_COLOURS, REGIMES
+from ..core import REGIME_CODES, REGIME_COLOURS, REGIME_RULES, REGIMES
 
 #: Regime letter → colour (maps, badge, legends).
 REGIME_COLOR = dict(REGIME_COLOURS)
@@ -120,10 +122,34 @@ def badge_html(cls: Any) -> str:
     sticking = html.escape(getattr(cls, "sticking", "") or "")
     return (f'<div class="rattle-badge" data-regime="{b["letter"]}" data-sticking="{sticking}" '
             f'style="display:flex;gap:12px;'
-            f'align-items:center"><span style="background:{b["color"]};color:white;font-size:28px;'
+            f'align-items:center"><span class="badge-letter" style="background:{b["color"]};color:white;font-size:28px;'
             f'font-weight:bold;border-radius:8px;padding:4px 14px">{b["letter"]}</span>'
             f'<span><b>{b["headline"]}</b><br><span class="badge-detail" style="color:#555">'
             f'{b["detail"]}</span></span></div>')
+
+
+def regime_legend_html() -> str:
+    """Every regime a run can be given: its colour, letter and meaning (the vocabulary's)."""
+    chips = "".join(
+        f'<span class="legend-regime" data-regime="{k}" title="{html.escape(REGIME_RULES[k])}" '
+        f'style="white-space:nowrap;margin-right:10px"><b style="background:{REGIME_COLOR[k]};'
+        f'color:white;border-radius:4px;padding:0 5px">{k}</b> {html.escape(meaning)}</span> '
+        for k, meaning in REGIMES.items())
+    return f'<div class="regime-legend" style="font-size:12px;line-height:1.7">{chips}</div>'
+
+
+def what_you_see(cls: Any) -> str:
+    """One sentence on what the current regime looks like: the vocabulary's rule for it
+    (``docs/model.md``, "Regimes", beside the badge that names it) and the run's own period
+    (plain text)."""
+    if cls is None or cls.regime not in REGIMES:
+        return ""
+    if cls.period:
+        shape = (f"the Poincaré map repeats every {cls.period} period"
+                 f"{'s' if cls.period > 1 else ''}: {cls.period} point{'s' if cls.period > 1 else ''}")
+    else:
+        shape = "the Poincaré map never repeats: a cloud of points"
+    return f"What you see: {REGIME_RULES[cls.regime]}; {shape}."
 
 
 def table_html(rows: list[tuple[str, ...]], css: str, head: tuple[str, ...] | None = None,

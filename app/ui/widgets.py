@@ -18,6 +18,7 @@ import panel as pn
 import param
 
 from ..state import rejection
+from .help import tooltip
 from .labels import message_html
 
 log = logging.getLogger(__name__)
@@ -77,7 +78,7 @@ class Field(pn.viewable.Viewer):
 
     def __init__(self, state: Any, name: str, label: str | None = None, slider: bool | None = None,
                  integer: bool | None = None, placeholder: str = "", width: int | None = None,
-                 css: str | None = None):
+                 css: str | None = None, help: str | None = None):
         super().__init__(state=state, name_=name)
         p = state.param[name]
         self._p = p
@@ -89,6 +90,9 @@ class Field(pn.viewable.Viewer):
         slider = bool(p.softbounds) if slider is None else slider
         text = label if label is not None else f"{p.label} · {p.doc}" if p.doc else p.label
         self.label = pn.pane.HTML(_label_html(text), margin=(4, 10, 0, 10), sizing_mode="stretch_width")
+        # ``help``: a key of app.ui.help.HELP, shown by a "?" icon beside the label
+        head = self.label if help is None else pn.Row(self.label, tooltip(help), margin=0,
+                                                      sizing_mode="stretch_width")
         if slider:
             lo, hi = p.softbounds
             self.box = box_cls(width=95, **box_kw)
@@ -104,7 +108,7 @@ class Field(pn.viewable.Viewer):
             row = self.box
         self.box.param.watch(self._on_box, "value")
         self.msg = message(state, name)
-        self.layout = pn.Column(self.label, row, self.msg, css_classes=[css or f"ctl-{name}"],
+        self.layout = pn.Column(head, row, self.msg, css_classes=[css or f"ctl-{name}"],
                                 sizing_mode="stretch_width", margin=(0, 0, 4, 0))
         state.param.watch(self._from_state, name)
         self._from_state()

@@ -20,6 +20,7 @@ import param
 from ..core import impacts_frame
 from ..presets import PRESETS, preset_values
 from ..state import ExplorerState, format_harmonics, parse_harmonics
+from ..ui.help import HELP
 from ..ui.plots import file_stem
 from ..ui.widgets import Field, _label_html, message
 
@@ -42,7 +43,7 @@ class Controls(pn.viewable.Viewer):
     def __init__(self, **params: Any):
         super().__init__(**params)
         s = self.state
-        self.fields = {n: Field(s, n) for n in SLIDERS}
+        self.fields = {n: Field(s, n, help=n if n in HELP else None) for n in SLIDERS}
         self.fields.update({n: Field(s, n) for n in ("periods", "shown", "transient", "v_stick",
                                                      "noise", "v0", "t0", "strobe")})
         self.fields["x0"] = Field(s, "x0", placeholder="middle of the backlash")

@@ -12,6 +12,7 @@ drawn beside the live run's (B), in its own colour and marker, and the legend na
 """
 from __future__ import annotations
 
+import html
 import math
 from typing import Any
 
@@ -22,7 +23,10 @@ import param
 from holoviews.operation.datashader import datashade, dynspread
 
 from ..core import batch_means, excitation
-from ..ui.labels import MARK_COLOR, PIN_COLOR, badge_html, metrics_rows, table_html
+from ..ui.help import HELP, tooltip
+from ..ui.labels import (MARK_COLOR, PIN_COLOR, badge_html, metrics_rows, regime_legend_html, table_html,
+                         what_you_see)
+from ..ui.present import PANE_CSS, figure_fonts, mark
 from ..ui.plots import (TOOLS, HoloViewsPane, Zoom, caption, file_stem, padded, save_as,
                     section_points, weak_hook)
 from ..state import ExplorerState
@@ -32,6 +36,10 @@ from ..ui.widgets import Choice, deferred, message
 SECTION_OPTIONS = {"Poincaré (x, ẋ)": "absolute", "relative (x−y, ẋ−ẏ)": "relative",
                    "impact map": "impact"}
 SECTION_PIXELS = (480, 320)
+#: Words of the diagrams explained on hover beside the legend (keys of :data:`app.ui.help.HELP`).
+WORDS = ("multipliers", "pd", "grazing", "sticking")
+#: The section figure's height, normal and while presenting.
+SECTION_HEIGHT = {False: 380, True: 430}
 #: Above this many points the section is rasterised instead of drawn as glyphs.
 DENSE = 5000
 #: Legend entries of the live run's and the pinned run's points.
@@ -77,6 +85,7 @@ class SectionView(pn.viewable.Viewer):
         self.pane = HoloViewsPane(plot, sizing_mode="stretch_width", min_height=380,
                                       css_classes=["section"], linked_axes=False)
         self.state.param.watch(self._update, ["result", "section", "pinned_result"])
+        self.state.param.watch(lambda e: self._redraw(), "present")
         self._update()
 
     def __panel__(self):
@@ -132,9 +141,9 @@ class SectionView(pn.viewable.Viewer):
         marker = hv.Points([point] if point else [], self._kdims).opts(
             marker="x", size=14, line_width=3, color=MARK_COLOR)
         cloud = hv.Points(self._xy, self._kdims, label=LIVE_LABEL).opts(
-            size=4, color="#1f5fa8", alpha=0.8)
+            size=7 if s.present else 4, color="#1f5fa8", alpha=0.8)
         pinned = hv.Points(self._pinned_xy, self._kdims, label=PINNED_LABEL).opts(
-            marker="triangle", size=6, color=PIN_COLOR, alpha=0.75)
+            marker="triangle", size=9 if s.present else 6, color=PIN_COLOR, alpha=0.75)
         return self.zoom.apply(pinned * cloud * marker, *self._lims)
 
     def _raster(self, dense_revision: int = 0, x_range: Any = None, y_range: Any = None) -> hv.RGB:
@@ -165,7 +174,10 @@ class SectionView(pn.viewable.Viewer):
                 fig.y_range.update(start=y0, end=y1, reset_start=y0, reset_end=y1)
         if plot.state.title.text != self._title:
             plot.state.title.text = self._title
-            plot.state.title.text_font_size = "9pt"
+        present = self.state.present
+        figure_fonts(plot.state, present, title="9pt")
+        if plot.state.height != SECTION_HEIGHT[present]:
+            plot.state.height = SECTION_HEIGHT[present]
         save_as(lambda: self._stem)(plot, element)
 
     @staticmethod
@@ -214,28 +226,50 @@ def start_from_section(state: ExplorerState, x: float, y: float) -> bool:
 
 
 class RegimeView(pn.viewable.Viewer):
-    """The regime badge and the rattle metrics (in SI units in physical-units mode)."""
+    """The regime badge, what the regime looks like, the legend of every regime, hover help
+    for the words of the diagrams, and the rattle metrics (in SI units in physical-units
+    mode)."""
 
     state = param.ClassSelector(class_=ExplorerState)
 
     def __init__(self, **params: Any):
         super().__init__(**params)
         self.badge = pn.pane.HTML("", css_classes=["regime-badge"], sizing_mode="stretch_width",
-                                  min_width=260)
+                                  min_width=260, stylesheets=[PANE_CSS])
+        self.seen = pn.pane.HTML("", css_classes=["regime-seen-pane"], sizing_mode="stretch_width",
+                                 stylesheets=[PANE_CSS], margin=(0, 10))
+        self.legend = pn.pane.HTML(regime_legend_html(), css_classes=["regime-legend-pane"],
+                                   sizing_mode="stretch_width", stylesheets=[PANE_CSS],
+                                   margin=(0, 10))
+        self.words = pn.Row(*[part for key in WORDS for part in (
+            pn.pane.HTML(f"<span style='font-size:12px'>{html.escape(HELP[key][0])}</span>",
+                         margin=(0, 0, 0, 10)), tooltip(key))], css_classes=["help-words"])
         # a fixed width, so a long value (an interval, SI units) wraps instead of squeezing the
         # badge beside it
         self.metrics = pn.pane.HTML("", css_classes=["rattle-metrics"], width=430,
-                                    styles={"white-space": "normal"})
+                                    styles={"white-space": "normal"}, stylesheets=[PANE_CSS])
         self.state.param.watch(self._draw, "result")
+        self.state.param.watch(self._present, "present")
         self._draw()
+        self._present()
 
     def __panel__(self):
-        return pn.Row(self.badge, self.metrics, sizing_mode="stretch_width")
+        return pn.Row(pn.Column(self.badge, self.seen, self.legend, self.words,
+                                sizing_mode="stretch_width", margin=0),
+                      self.metrics, sizing_mode="stretch_width")
 
     def _draw(self, *_: Any) -> None:
         run = self.state.result
         if run is None:
             return
         self.badge.object = badge_html(run.cls)
+        self.seen.object = (f'<div class="regime-seen" style="font-size:13px">'
+                            f'{html.escape(what_you_see(run.cls))}</div>')
         self.metrics.object = table_html(
             metrics_rows(run.cls, run.tr, run.phys, batch_means(run.tr, run.cls)), "rattle-metrics")
+
+    def _present(self, *_: Any) -> None:
+        on = self.state.present
+        mark([self.badge, self.seen, self.legend, self.metrics], on)
+        # a lecture needs the regime and its legend; the metrics and word help stay on the page
+        self.metrics.visible = self.words.visible = not on

@@ -37,8 +37,11 @@ from bokeh.plotting import figure
 from ..state import ExplorerState
 from ..ui.labels import (ACTIVE_COLOR, GEAR_COLOR, MARK_COLOR, PIN_COLOR, REVERSE_COLOR,
                          STICK_COLOR, TOOTH_COLOR)
+from ..ui.present import figure_fonts
 from ..ui.plots import caption, file_stem, full_screen, name_saved_png, time_history_data
 
+#: The figure's height, normal and while presenting.
+HEIGHT = {False: 330, True: 470}
 MOTION = ("t", "x", "y", "yj", "tooth_lo", "tooth_hi")
 IMPACTS = ("t", "x", "impulse")
 #: The gear's legend entry, alone and beside a pinned run; and the pinned run's.
@@ -53,12 +56,11 @@ def time_history_figure() -> tuple[Any, dict[str, ColumnDataSource]]:
            "reverse": ColumnDataSource({k: [] for k in IMPACTS}, name="th_reverse"),
            "stick": ColumnDataSource({"xs": [], "ys": []}, name="th_stick"),
            "pinned": ColumnDataSource({"t": [], "x": []}, name="th_pinned")}
-    p = figure(height=330, sizing_mode="stretch_width", tools="pan,wheel_zoom,box_zoom,reset",
+    p = figure(height=HEIGHT[False], sizing_mode="stretch_width", tools="pan,wheel_zoom,box_zoom,reset",
                active_scroll="wheel_zoom", x_range=DataRange1d(), y_range=DataRange1d(),
                output_backend="canvas", name="time_history")
     p.add_tools(SaveTool(filename="rattle_time.png"))
     full_screen(p)
-    p.title.text_font_size = "10pt"
     m = src["motion"]
     teeth_a = p.varea(x="t", y1="tooth_lo", y2="y", source=m, fill_color=TOOTH_COLOR, fill_alpha=0.55)
     teeth_r = p.varea(x="t", y1="yj", y2="tooth_hi", source=m, fill_color=TOOTH_COLOR, fill_alpha=0.55)
@@ -102,10 +104,26 @@ class TimeHistoryView(pn.viewable.Viewer):
         #: What the current ranges were framed for: the axis labels and the data's time span.
         self._frame: tuple | None = None
         self.state.param.watch(self.draw, ["result", "shown", "backlash_unit", "pinned_result"])
+        self.state.param.watch(self._present, "present")
         self.draw()
+        self._present()
 
     def __panel__(self):
         return self.pane
+
+    def _present(self, *_: Any) -> None:
+        """Presentation mode: a taller figure, larger fonts."""
+        on = self.state.present
+        figure_fonts(self.fig, on)
+        # beside a figure half the page wide, the legend goes below it, in two columns
+        legend = self.fig.legend[0]
+        side, other = ("below", "right") if on else ("right", "below")
+        if legend not in getattr(self.fig, side):
+            setattr(self.fig, other, [m for m in getattr(self.fig, other) if m is not legend])
+            setattr(self.fig, side, [*getattr(self.fig, side), legend])
+            legend.ncols = 2 if on else 1
+        if self.fig.height != HEIGHT[on]:
+            self.fig.height = HEIGHT[on]
 
     def draw(self, *_: Any) -> None:
         run = self.state.result

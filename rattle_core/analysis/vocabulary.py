@@ -29,22 +29,31 @@ from ..model.units import PhysicalParams
 
 @dataclasses.dataclass(frozen=True)
 class Regime:
-    """One regime: its letter, integer code, meaning and colour."""
+    """One regime: its letter, integer code, meaning, colour, and the rule that gives it
+    (``docs/model.md``'s table, word for word; a test compares them)."""
 
     letter: str
     code: int
     meaning: str
     colour: str
+    rule: str = ""
 
 
 REGIMES: tuple[Regime, ...] = (
-    Regime("A", 0, "permanent contact", "#9e9e9e"),
-    Regime("B", 1, "impacts followed by permanent contact", "#ff9800"),
-    Regime("C", 2, "one active-flank impact per period", "#2e7d32"),
-    Regime("D", 3, "chaotic", "#d32f2f"),
-    Regime("E", 4, "two impacts per period, one on each flank", "#1565c0"),
-    Regime("P", 5, "periodic", "#7b1fa2"),
-    Regime("Q", 6, "non-repeating, no positive exponent", "#795548"),
+    Regime("A", 0, "permanent contact", "#9e9e9e",
+           "no impact, stuck more than 99 % of the window"),
+    Regime("B", 1, "impacts followed by permanent contact", "#ff9800",
+           "some sticking"),
+    Regime("C", 2, "one active-flank impact per period", "#2e7d32",
+           "period 1, one active impact per period (±2 %), none on the reverse flank"),
+    Regime("D", 3, "chaotic", "#d32f2f",
+           "no period, a Lyapunov exponent above 1e-3; it may stick now and then"),
+    Regime("E", 4, "two impacts per period, one on each flank", "#1565c0",
+           "period 1, one impact per period on each flank (±2 %)"),
+    Regime("P", 5, "periodic", "#7b1fa2",
+           "any other periodic response"),
+    Regime("Q", 6, "non-repeating, no positive exponent", "#795548",
+           "quasi-periodic, or a long transient"),
     Regime("error", 7, "stopped at a solver limit", "#000000"),
 )
 #: Letters in code order, ``error`` last.
@@ -54,6 +63,8 @@ CLASS_LETTERS: tuple[str, ...] = LETTERS[:-1]
 REGIME_CODES: dict[str, int] = {g.letter: g.code for g in REGIMES}
 REGIME_MEANING: dict[str, str] = {g.letter: g.meaning for g in REGIMES}
 REGIME_COLOURS: dict[str, str] = {g.letter: g.colour for g in REGIMES}
+#: Regime letter → the rule that gives it, for the letters a classification can give.
+REGIME_RULES: dict[str, str] = {g.letter: g.rule for g in REGIMES if g.rule}
 #: Kinds of motion through sticking (``Classification.sticking``), in the order of their codes:
 #: none, a loop resolvable in double precision, a loop decided by rounding (``docs/model.md``).
 STICKING_KINDS: tuple[str, ...] = ("", "stick-locked", "chaos-through-sticking")
