@@ -5,6 +5,7 @@
     .venv/bin/python -m app.screenshot --continuation --query "?lam=1.2&h2=0" \
         --out assets/continuation.png                                  # "Continue this orbit"
     .venv/bin/python -m app.screenshot --gearbox --out assets/gearbox.png   # the Gearbox tab
+    .venv/bin/python -m app.screenshot --present --out assets/present.png   # a 1280×720 projector
 
 Serves the app on a free local port, opens it in headless Chromium (Debian's ``chromium``;
 Playwright's own browsers cannot be downloaded here), waits until the time history and the
@@ -13,7 +14,8 @@ computes the default regime map (Λ × φ₂) and waits for its image first. Wit
 ``--continuation`` it presses "Continue this orbit", waits for the branch on the diagram and
 keeps the part of the page with the diagram and the multipliers. With ``--gearbox`` it opens
 the Gearbox tab, takes the sample run-up, runs the verdict with a drag +20 % variant and waits
-for it.
+for it. With ``--present`` it opens presentation mode on a 1280×720 viewport, the size of
+a common projector.
 """
 from __future__ import annotations
 
@@ -56,6 +58,8 @@ def main() -> int:
                     help="press 'Continue this orbit' and screenshot the diagram with the branch")
     ap.add_argument("--gearbox", action="store_true",
                     help="screenshot the Gearbox tab with the sample's verdict and a variant")
+    ap.add_argument("--present", action="store_true",
+                    help="presentation mode (present=true) on a 1280×720 viewport")
     ap.add_argument("--chromium", default=shutil.which("chromium") or "/usr/bin/chromium")
     args = ap.parse_args()
 
@@ -70,10 +74,16 @@ def main() -> int:
     try:
         with sync_playwright() as pw:
             browser = pw.chromium.launch(executable_path=args.chromium, args=CHROMIUM_ARGS)
-            page = browser.new_page(viewport={"width": 1500, "height": 1020})
-            page.goto(f"http://localhost:{port}/{args.query}")
+            size = {"width": 1280, "height": 720} if args.present else {"width": 1500, "height": 1020}
+            page = browser.new_page(viewport=size)
+            query = args.query
+            if args.present:
+                query += ("&" if query else "?") + "present=true"
+            page.goto(f"http://localhost:{port}/{query}")
             page.wait_for_function(READY, timeout=120_000)
-            page.locator(".bif-status").filter(has_text="swept").first.wait_for(timeout=300_000)
+            # the diagram is hidden while presenting: its sweep is not on the picture
+            if not args.present:
+                page.locator(".bif-status").filter(has_text="swept").first.wait_for(timeout=300_000)
             if args.maps:
                 page.locator(".bk-tab", has_text="Maps").first.click()
                 page.locator(".map-compute button").first.click()

@@ -86,10 +86,9 @@ def box_value(page, name: str) -> float:
     return float(box(page, name).input_value())
 
 
-#: The number in the first input box inside ``css`` (null when empty), and whether it shows
-#: ``want`` within ``tol``. Panel draws its widgets in shadow roots, so the search walks into them.
-BOX_VALUE = """(css) => {
-  const deep = (root, sel) => {
+#: A JavaScript function ``deep(root, selector)``: the first match, searched into shadow roots
+#: too (Panel draws its widgets in shadow roots).
+DEEP = """  const deep = (root, sel) => {
     const hit = root.querySelector(sel);
     if (hit) return hit;
     for (const el of root.querySelectorAll('*')) {
@@ -97,7 +96,12 @@ BOX_VALUE = """(css) => {
     }
     return null;
   };
-  const field = deep(document, css);
+"""
+
+#: The number in the first input box inside ``css`` (null when empty), and whether it shows
+#: ``want`` within ``tol``. Panel draws its widgets in shadow roots, so the search walks into them.
+BOX_VALUE = """(css) => {
+""" + DEEP + """  const field = deep(document, css);
   const box = field && (deep(field.shadowRoot || field, 'input.bk-input') || deep(field, 'input.bk-input'));
   return box == null || box.value === '' ? null : Number(box.value);
 }"""

@@ -11,7 +11,7 @@ from playwright.sync_api import expect
 
 from rattle_core.analysis.vocabulary import CLASS_LETTERS
 
-from test_ui import open_dashboard, painted
+from test_ui import DEEP, open_dashboard, painted
 
 pytestmark = [pytest.mark.ui, pytest.mark.timeout(300)]
 
@@ -19,15 +19,7 @@ PROJECTOR = {"width": 1280, "height": 720}
 
 #: What the page looks like: scroll sizes, the two figures' boxes, the fonts, the sidebar.
 LOOK = """() => {
-  const deep = (root, sel) => {
-    const hit = root.querySelector(sel);
-    if (hit) return hit;
-    for (const el of root.querySelectorAll('*')) {
-      if (el.shadowRoot) { const f = deep(el.shadowRoot, sel); if (f) return f; }
-    }
-    return null;
-  };
-  const d = Bokeh.documents[0];
+""" + DEEP + """  const d = Bokeh.documents[0];
   const box = (name) => {
     const r = Bokeh.index.find_one(d.get_model_by_name(name)).el.getBoundingClientRect();
     return {left: r.left, top: r.top, right: r.right, bottom: r.bottom, width: r.width, height: r.height};
