@@ -45,8 +45,14 @@ def test_a_noise_sensitive_run_gets_a_badge_that_says_what_moves(dash):
     """Λ = 2.6, core φ₂ = 315°: the background check flags it and names the statistic and the
     levels; a periodic run (C orbit) shows no badge and starts no check."""
     s = dash.state
+    cancel = dash.noise.run.cancel_button
+    wait_for(lambda: dash.noise.run.job is None, 300, "the default page's check")
+    assert not cancel.visible  # Cancel shows only while a check runs
     s.param.update(phases="core", lam=2.6, r=0.65, j=8.0, h2=0.25, phi2=315.0)
+    # running (Cancel offered), unless a cached check has already answered
+    assert (cancel.visible and not cancel.disabled) or dash.noise.result is not None
     wait_for(lambda: dash.noise.result is not None, 300, "the noise check")
+    assert not cancel.visible
     out = dash.noise.result
     assert out["sensitive"], out
     text = dash.noise.badge.object

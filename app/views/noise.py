@@ -40,6 +40,10 @@ class NoiseView(pn.viewable.Viewer):
         # the check's job: its progress and Cancel (``noise-progress``, ``noise-cancel``)
         self.run = JobPanel(self.jobs, "noise", "noise")
         self.run.cancel_button.on_click(lambda e: self._cancel())
+        # Cancel shows only while a check runs: most runs are periodic and never start one
+        self.run.cancel_button.visible = False
+        self.run.progress.param.watch(
+            lambda e: setattr(self.run.cancel_button, "visible", e.new), "visible")
         self.result: dict | None = None
         self._key: str | None = None
         self.state.param.watch(self._check, "result")
