@@ -258,10 +258,14 @@ def test_a_slider_drag_runs_once(page, dashboard_server):
     h = page.locator(".ctl-lam .noUi-handle").first.bounding_box()
     x, y = h["x"] + h["width"] / 2, h["y"] + h["height"] / 2
     page.mouse.move(x, y)
+    handle = page.locator(".ctl-lam .noUi-handle").first.element_handle()
     page.mouse.down()
     for k in range(1, 13):
+        before = handle.get_attribute("aria-valuenow")
         page.mouse.move(x + 6 * k, y, steps=2)
-        page.wait_for_timeout(60)  # a hand's drag lasts: each position has time to be sent
+        # as a hand drags: each position is on the slider before the next move
+        page.wait_for_function("([h, v]) => h.getAttribute('aria-valuenow') !== v",
+                               arg=[handle, before], timeout=20_000)
     page.mouse.up()
     page.wait_for_function("(el) => parseFloat(el.value) > 3.3", arg=box(page, "lam").element_handle(),
                            timeout=20_000)

@@ -9,7 +9,6 @@
 from __future__ import annotations
 
 import gc
-import time
 import urllib.parse
 import weakref
 
@@ -19,7 +18,7 @@ from app import dashboard as dashboard_module
 from app import session as session_module
 from app.state import URL_KEYS
 from test_ui import READY, box_value, open_dashboard, painted
-from conftest import patient_context
+from conftest import patient_context, wait_for
 
 pytestmark = [pytest.mark.ui, pytest.mark.timeout(900)]
 
@@ -114,10 +113,9 @@ def test_twenty_closed_sessions_are_collected(browser, dashboard_server):
     finally:
         context.close()
     assert len(refs) == 60
-    deadline = time.monotonic() + 60
-    while any(r() is not None for r in refs) and time.monotonic() < deadline:
-        gc.collect()
-        time.sleep(1.0)
+    # collect on every look: a closed session's objects form cycles
+    wait_for(lambda: gc.collect() >= 0 and all(r() is None for r in refs), 60,
+             "the closed sessions to be collected")
     alive = [type(r()).__name__ for r in refs if r() is not None]
     print(f"server RSS {rss:.0f} MB before 20 sessions, {_rss_mb():.0f} MB after they closed")
     assert alive == []
@@ -137,12 +135,7 @@ def test_closing_the_page_cancels_its_background_work(browser, dashboard_server)
         box.fill(value)
         box.press("Enter")  # sent before the click, on the same socket
     p.locator(".map-compute button").first.click()
-    deadline = time.monotonic() + 20
-    while not jobs.pool().pending(key) and time.monotonic() < deadline:
-        time.sleep(0.2)
-    assert jobs.pool().pending(key), "the map never started"
+    wait_for(lambda: jobs.pool().pending(key), 60, "the map to start")
     context.close()
-    deadline = time.monotonic() + 60
-    while jobs.pool().pending(key) and time.monotonic() < deadline:
-        time.sleep(0.5)
+    wait_for(lambda: not jobs.pool().pending(key), 60, "the closed page's map to be cancelled")
     assert jobs.pool().pending(key) == []
