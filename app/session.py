@@ -90,7 +90,10 @@ class SessionJobs:
                 return
             doc = me.doc
             if doc is None or doc.session_context is None:
-                fn(arg)
+                # a refresh holds this lock from its change to its message; a job that ends
+                # meanwhile must wait, or the refresh would clear the job's own message
+                with HV_LOCK:
+                    fn(arg)
                 return
             from panel.io.state import set_curdoc
 
