@@ -197,9 +197,9 @@ def serve(port: int = 5006, address: str = "localhost", show: bool = False,
         raise ValueError(f"dask = {dask!r}; the only value is 'local'")
     with contextlib.ExitStack() as stack:
         if dask == "local":
-            from dask.distributed import LocalCluster
+            from rattle_core.batch.executor import local_cluster
             with _sigint_ignored():
-                cluster = LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None)
+                cluster = local_cluster(2)
             if not threaded:  # a server that returns keeps its cluster; one that ends closes it
                 stack.callback(cluster.close)
             scheduler = cluster.scheduler_address

@@ -87,10 +87,21 @@ def test_cancel_and_progress():
 def dask_client():
     """A 2-worker Dask LocalCluster (one thread per worker, separate processes)."""
     distributed = pytest.importorskip("dask.distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster, \
-            distributed.Client(cluster) as client:
+    from rattle_core.batch.executor import local_cluster
+    with local_cluster(2) as cluster, distributed.Client(cluster) as client:
         yield client
+
+
+def test_local_cluster_workers_retry_a_failed_message(dask_client):
+    """The workers of the local cluster (the server's ``--dask local`` too) retry a message
+    to the scheduler, so a connection closed on a loaded machine is not a logged failure."""
+    from rattle_core.batch.executor import COMM_RETRIES
+
+    def retries():
+        import dask
+        return dask.config.get("distributed.comm.retry.count")
+    seen = dask_client.run(retries)
+    assert len(seen) == 2 and set(seen.values()) == {COMM_RETRIES} and COMM_RETRIES > 0, seen
 
 
 def test_dask_local_cluster_equals_local(dask_client):

@@ -107,14 +107,13 @@ def connect(address: str, workers: int = LOCAL_WORKERS, timeout: str = "10s"
     from ..model.params import check_int
     workers = check_int("workers", workers, 1, 256)
     try:
-        from dask.distributed import Client, LocalCluster
+        from dask.distributed import Client
     except ImportError:
         raise ConnectionError("Dask (dask.distributed) is not installed; run on this "
                               "process's cores instead") from None
     try:
         if address == "local":
-            cluster = LocalCluster(n_workers=int(workers), threads_per_worker=1,
-                                   dashboard_address=None)
+            cluster = local_cluster(workers)
             client = Client(cluster, set_as_default=False)
 
             def close() -> None:
@@ -126,6 +125,22 @@ def connect(address: str, workers: int = LOCAL_WORKERS, timeout: str = "10s"
         text = " ".join(str(exc).split()) or type(exc).__name__
         raise ConnectionError(f"Dask scheduler {address!r}: cannot connect ({text})") from None
     return client, client.close
+
+
+#: Retries of one message between a Dask worker and its scheduler.  Dask's default is none:
+#: a connection the scheduler closed while its process was busy (a loaded machine) fails a
+#: worker's heartbeat, which Dask then logs with a traceback and recovers from on the next one.
+COMM_RETRIES = 3
+
+
+def local_cluster(workers: int = LOCAL_WORKERS) -> Any:
+    """A Dask ``LocalCluster`` of ``workers`` one-thread workers, retrying a failed message."""
+    import dask
+    from dask.distributed import LocalCluster
+
+    # set before the cluster starts: each worker process takes the configuration of this one
+    dask.config.set({"distributed.comm.retry.count": COMM_RETRIES})
+    return LocalCluster(n_workers=int(workers), threads_per_worker=1, dashboard_address=None)
 
 
 @contextlib.contextmanager
