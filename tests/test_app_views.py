@@ -133,8 +133,13 @@ def test_file_names_and_captions_carry_the_parameters():
                                 phases="paper", phys=None)
     assert plots.file_stem(run, "time") == "rattle_time_lam3.3_r0.65_j8_h2-0.25_phi2-45paper"
     assert plots.caption(run) == "Λ = 3.3 · r = 0.65 · j = 8 · h2 = 0.25, φ2 = 45° (paper)"
+    assert plots.caption(run, "lam") == "r = 0.65 · j = 8 · h2 = 0.25, φ2 = 45° (paper)"
+    assert plots.caption(run, "phi2") == "Λ = 3.3 · r = 0.65 · j = 8 · h2 = 0.25 (paper)"
     run.phys = units.example()
     assert plots.file_stem(run, "time").endswith("_1500rpm") and "1500 rpm" in plots.caption(run)
+    by_speed = plots.caption(run, "rpm")
+    assert "rpm" not in by_speed and "Λ" not in by_speed and "j =" not in by_speed
+    assert by_speed.startswith("r = 0.65 · h2 = 0.25") and "C = " in by_speed
 
 
 # ----- a whole dashboard, driven through its state and widgets ---------------------------------------
@@ -191,6 +196,7 @@ def test_diagram_is_shipped_marks_the_current_value_and_a_click_sets_lambda(dash
     assert dash.state.lam == 2.1235 and dash.state.result.params.lam == 2.1235
     assert d.marker in (None, 2.1235)  # on a drawn page, the marker follows
     assert d.diagram is not None and "fig4" in d.diagram.source  # Λ moves only the marker
+    assert d._title == "Bifurcation diagram · r = 0.65 · j = 8 · h2 = 0.25, φ2 = 45° (paper)"
 
 
 def test_diagram_at_lambda_06_shows_the_whole_range_and_counts_every_value(dash):

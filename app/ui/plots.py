@@ -32,18 +32,31 @@ TOOLS = ["save", "pan", "wheel_zoom", "box_zoom", "reset"]
 
 # ----- names of a run -----------------------------------------------------------------------
 
-def caption(run: Any) -> str:
-    """The run's parameters in one line, in the page's phase convention (and SI when on)."""
+#: What a diagram over each parameter leaves out of its caption: the swept value, and in
+#: physical units what the engine speed sets (Λ and j follow the speed).
+SWEPT = {"lam": {"lam"}, "phi2": {"phi2"}, "rpm": {"rpm", "lam", "j"}}
+
+
+def caption(run: Any, swept: str | None = None) -> str:
+    """The run's parameters in one line, in the page's phase convention (and SI when on).
+
+    With ``swept``, the caption of a diagram over that parameter: what the diagram runs over
+    is left out, since the diagram stays the same while only that changes.
+    """
+    out = SWEPT.get(swept, set())
     p = run.params
     phases = display_phases(p, run.phases)
-    parts = [f"Λ = {num(p.lam, 6)}", f"r = {num(p.r, 4)}", f"j = {num(p.j, 5)}"]
+    parts = [f"Λ = {num(p.lam, 6)}"] if "lam" not in out else []
+    parts += [f"r = {num(p.r, 4)}"] + ([f"j = {num(p.j, 5)}"] if "j" not in out else [])
     for k in range(2, p.n_harmonics + 1):
         if p.amplitudes[k - 1] != 0.0 or k == 2:
-            parts.append(f"h{k} = {num(p.amplitudes[k - 1], 4)}, φ{k} = {num(phases[k - 1], 5)}°")
+            phase = "" if k == 2 and "phi2" in out else f", φ{k} = {num(phases[k - 1], 5)}°"
+            parts.append(f"h{k} = {num(p.amplitudes[k - 1], 4)}{phase}")
     parts[-1] += f" ({run.phases})"
     if run.phys is not None:
         ph = run.phys
-        parts.append(f"{num(ph.rpm, 6)} rpm, C = {num(ph.drag_torque, 4)} N·m")
+        speed = "" if "rpm" in out else f"{num(ph.rpm, 6)} rpm, "
+        parts.append(f"{speed}C = {num(ph.drag_torque, 4)} N·m")
     return " · ".join(parts)
 
 

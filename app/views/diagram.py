@@ -132,7 +132,7 @@ class DiagramView(pn.viewable.Viewer):
         self._key, self._name = key, name
         self.diagram = None
         self.zoom.user = False
-        self._title = f"Bifurcation diagram · {caption(run)}"
+        self._title = f"Bifurcation diagram · {caption(run, name)}"
         self._stem = file_stem(run, f"diagram-{name}")
         req = request(name, self.state, run)
         self._span_x = (min(req.axis), max(req.axis))
