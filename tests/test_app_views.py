@@ -323,3 +323,20 @@ def test_time_history_zoom_lasts_while_the_time_axis_keeps_its_meaning(dash):
     assert new_end == pytest.approx(t_end / 0.8, rel=1e-6)
     fresh = th.fig.x_range
     assert fresh is not zoom and math.isnan(fresh.start) and math.isnan(fresh.end)
+
+
+def test_plots_share_an_axis_only_where_it_means_the_same(dash):
+    """Panel links the ranges of plots whose axes share a name; on this page only the twin
+    trajectory and its separation share one (time), so only they may be linked."""
+    import panel as pn
+    dash.state.twin = True
+    panes = [dash.section.pane, dash.diagram.pane, dash.maps.pane, dash.continuation.pane,
+             dash.curve.pane, *dash.sensitivity.plots]
+    root = pn.Column(*panes).get_root()
+    shared: dict[int, list] = {}
+    for pane in panes:
+        fig = pane._plots[root.ref["id"]][0].state
+        for axis, rng in (("x", fig.x_range), ("y", fig.y_range)):
+            shared.setdefault(id(rng), []).append((pane.css_classes[0], axis))
+    linked = sorted(v for v in shared.values() if len(v) > 1)
+    assert linked == [[("twin-paths", "x"), ("twin-gap", "x")]], linked

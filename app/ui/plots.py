@@ -18,6 +18,7 @@ from typing import Any, Callable
 
 import holoviews as hv
 import numpy as np
+import param
 import panel as pn
 
 from ..core import TWO_PI
@@ -151,7 +152,16 @@ def named_glyph(glyph: str) -> Callable:
 
 
 class HoloViewsPane(pn.pane.HoloViews):
-    """``pn.pane.HoloViews`` whose plots are built under :data:`HV_LOCK`."""
+    """``pn.pane.HoloViews`` whose plots are built under :data:`HV_LOCK`.
+
+    Its axes are its own unless it asks (``linked_axes=True``): Panel otherwise links the
+    ranges of every plot on the page whose axes share a name, and the page's plots share
+    names ("x", "t / period") with meanings and spans of their own.  Linked, the 2-D map took
+    another plot's range while its click stream still clipped taps against its own, and every
+    click was dropped as out of range.
+    """
+
+    linked_axes = param.Boolean(default=False, doc="Link this plot's axes with other panes'.")
 
     def _get_model(self, *args: Any, **kwargs: Any) -> Any:
         with HV_LOCK:

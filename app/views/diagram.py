@@ -95,7 +95,7 @@ class DiagramView(pn.viewable.Viewer):
             hv.opts.Overlay(responsive=True, height=380, hooks=[weak_hook(self._name_plot)]),
             hv.opts.RGB(tools=[*TOOLS, "tap"], active_tools=["wheel_zoom"]))
         self.pane = HoloViewsPane(plot, sizing_mode="stretch_width", min_height=380,
-                                      css_classes=["diagram"], linked_axes=False)
+                                      css_classes=["diagram"])
         s.param.watch(self._update, ["result", "bif", "phases"])
         s.param.watch(self._move_marker, ["result", "pinned_result"])
         s.param.watch(self._on_units, "units")

@@ -83,7 +83,7 @@ class SectionView(pn.viewable.Viewer):
         self.mode = Choice(self.state, "section", SECTION_OPTIONS, sizing_mode="stretch_width")
         self.msg = message(self.state, "start")
         self.pane = HoloViewsPane(plot, sizing_mode="stretch_width", min_height=380,
-                                      css_classes=["section"], linked_axes=False)
+                                      css_classes=["section"])
         self.state.param.watch(self._update, ["result", "section", "pinned_result"])
         self.state.param.watch(lambda e: self._redraw(), "present")
         self._update()

@@ -76,10 +76,7 @@ class MapsView(pn.viewable.Viewer):
         self.download = pn.widgets.FileDownload(callback=self._csv, filename="map.csv", label="Map as CSV",
                                                 color="success", disabled=True,
                                                 css_classes=["map-download"], sizing_mode="stretch_width")
-        # Panel links the ranges of plots whose axes share a name ("x", "y") across the page;
-        # linked, the map would take another plot's range while its click stream still
-        # clipped taps against its own, and every click was dropped as out of range
-        self.pane = HoloViewsPane(self._plot(), css_classes=["map-plot"], linked_axes=False)
+        self.pane = HoloViewsPane(self._plot(), css_classes=["map-plot"])
         # a new colour scale (regimes, log intensity, linear) needs a plot of its own
         m.param.watch(lambda e: setattr(self.pane, "object", self._plot()), "field")
         self._choices = {n: Choice(m, n, {axis_label(a): a for a in self._axes()}, select=True,

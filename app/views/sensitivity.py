@@ -84,11 +84,12 @@ class SensitivityView(pn.viewable.Viewer):
         self.text = pn.pane.HTML("", css_classes=["twin-text"], sizing_mode="stretch_width")
         self.paths = hv.DynamicMap(self._paths, streams=[hv.streams.Params(self, ["revision"])])
         self.gap = hv.DynamicMap(self._gap, streams=[hv.streams.Params(self, ["revision"])])
+        # the two share their time axis: a zoom in time on one is a zoom on the other
         self.plots = pn.Row(
             HoloViewsPane(self.paths, sizing_mode="stretch_width", height=260,
-                          css_classes=["twin-paths"]),
+                          css_classes=["twin-paths"], linked_axes=True),
             HoloViewsPane(self.gap, sizing_mode="stretch_width", height=260,
-                          css_classes=["twin-gap"]),
+                          css_classes=["twin-gap"], linked_axes=True),
             sizing_mode="stretch_width", visible=s.twin)
         self.body = pn.Column(pn.Row(self.nudge, self.reset, sizing_mode="stretch_width"),
                               message(s, "twin"), self.text, self.plots,
