@@ -34,7 +34,7 @@ from rattle_core.model.phases import core_to_paper, paper_to_core, paper_to_core
 from rattle_core.model.units import PhysicalParams
 from rattle_core.paper.cases import CASES as PAPER_CASES
 from rattle_core.store.assets import find_asset, list_assets, load_asset
-from rattle_core.store.cache import cached, cached_sweep
+from rattle_core.store.cache import NotCached, cached, cached_sweep, read_only
 from rattle_core.store.files import atomic_savez
 from rattle_core.store.exports import impacts_frame
 from rattle_core.store.requests import run_map
@@ -62,7 +62,7 @@ __all__ = [
     "CONTINUATION_VERSION", "ContinuationResult", "SOLVER_VERSION", "MAX_T0", "continue_orbit",
     "find_orbit", "atomic_savez", "cached", "cached_sweep", "find_asset", "list_assets", "load_asset", "contact_boundary", "excitation",
     "units", "PhysicalParams", "REGIMES", "TWO_PI", "MAP_PHYSICAL_AXES", "REGIME_CODES",
-    "REGIME_COLOURS", "REGIME_RULES", "plan_map", "point_params", "run_map", "PAPER_CASES",
+    "NotCached", "read_only", "REGIME_COLOURS", "REGIME_RULES", "plan_map", "point_params", "run_map", "PAPER_CASES",
     "core_phi2_to_paper", "paper_phi2_to_core", "AMPLITUDE_RANGE", "J_RANGE", "LAM_RANGE",
     "MAX_HARMONICS", "PHASE_RANGE_DEG", "R_RANGE", "V_STICK_RANGE", "check_range",
     "core_to_paper_phases", "paper_to_core_phases", "DEFAULT_EXCITATION_HZ", "DEFAULT_MODES",

@@ -67,6 +67,18 @@ def test_second_call_is_served_from_disk(tmp_path, counted, monkeypatch):
     assert second.settings["transient"] == 30 and second.params == BASE
 
 
+def test_read_only_serves_a_hit_and_computes_nothing_on_a_miss(tmp_path, counted):
+    """Inside ``read_only()`` a miss raises NotCached without computing; a hit is served."""
+    with cache.read_only(), pytest.raises(cache.NotCached):
+        cached_sweep(BASE, "lam", VALS, directory=tmp_path, **KW)
+    assert counted == [] and _entries(tmp_path) == []
+    first = cached_sweep(BASE, "lam", VALS, directory=tmp_path, **KW)
+    with cache.read_only():
+        second = cached_sweep(BASE, "lam", VALS, directory=tmp_path, **KW)
+    assert len(counted) == 1 and second.from_cache
+    _same(first, second)
+
+
 def test_different_settings_different_key(tmp_path, counted):
     """Any change of parameters, name, values or settings gives a new key and a new entry."""
     settings = {"transient": 30, "record": 10, "mode": "fresh", "x0": None, "v0": 0.0}

@@ -71,10 +71,28 @@ def test_a_link_naming_an_axis_without_its_range_gets_the_axis_range(linked):
 
 
 def test_a_heavy_link_waits_for_compute(linked):
-    """200 × 200 points over 260 periods is more than a link runs by itself: status, no job."""
+    """200 × 200 points over 260 periods is more than a link runs by itself: it is looked up
+    in the disk cache only, and without it the page waits for Compute."""
     d, _ = linked("?tab=maps&map_x_num=200&map_y_num=200")
+    wait_for(lambda: "press Compute" in d.maps.status.object, what="the cache lookup")
     assert d.maps.job is None and d.maps.result is None
-    assert "press Compute" in d.maps.status.object and "40000 points" in d.maps.status.object
+    assert "40000 points" in d.maps.status.object and "not in the disk cache" in d.maps.status.object
+
+
+def test_a_heavy_link_whose_map_ran_before_is_read_from_the_disk_cache(linked):
+    """A heavy link opened a second time shows its map at once, read from the disk cache."""
+    link = ("?tab=maps&map_x_axis=r&map_x_start=0.4&map_x_stop=0.9&map_x_num=61"
+            "&map_y_axis=j&map_y_start=3&map_y_stop=9&map_y_num=2&map_transient=7660&map_record=20")
+    first, _ = linked(link)  # 122 points × 7680 periods: over a link's own work
+    wait_for(lambda: "press Compute" in first.maps.status.object, what="the cache lookup")
+    assert first.maps.result is None
+    first.maps.compute()
+    wait_for(lambda: first.maps.result is not None, what="the computed map")
+    second, _ = linked(link)
+    wait_for(lambda: second.maps.result is not None, what="the map from the disk cache")
+    assert second.maps.result.from_cache
+    for k, v in first.maps.result.fields.items():
+        np.testing.assert_array_equal(second.maps.result.fields[k], v)
 
 
 def test_absurd_map_sizes_in_a_link_are_refused_naming_the_range(linked):

@@ -203,18 +203,20 @@ class MapsView(pn.viewable.Viewer):
                 "x_values": xv, "y_values": yv, "core": core, "plan": plan,
                 "transient": m.transient, "record": m.record, "key": request_key(run.params, plan)}
 
-    def compute(self) -> bool:
-        """Start the map the settings ask for (it replaces the one running)."""
-        req = self.request()
+    def compute(self, req: dict | None = None, cached_only: bool = False) -> bool:
+        """Start the map the settings ask for (it replaces the one running); with
+        ``cached_only``, only read it from the disk cache (``_not_cached`` says a miss)."""
+        req = req or self.request()
         if req is None:
             return False
         n = req["x_values"].size * req["y_values"].size
         where = f"on Dask ({scheduler()})" if scheduler() else "on this server's cores"
         args = (req["params"], req["phys"], req["x_name"], req["core"]["x"], req["y_name"],
-                req["core"]["y"], req["transient"], req["record"], scheduler())
-        self.run.submit(req["key"], tasks.regime_map, args,
-                        f"Computing {req['x_values'].size} × {req['y_values'].size} = {n} points "
-                        f"{where}…", 300.0, on_done=lambda r: self._done(req, r),
+                req["core"]["y"], req["transient"], req["record"], scheduler(), cached_only)
+        text = ("Looking for this map in the disk cache…" if cached_only else
+                f"Computing {req['x_values'].size} × {req['y_values'].size} = {n} points {where}…")
+        self.run.submit(req["key"], tasks.regime_map, args, text, 300.0,
+                        on_done=lambda r: self._done(req, r) if r is not None else self._not_cached(req),
                         on_error=self._error)
         return self.run.key is not None
 
@@ -225,8 +227,8 @@ class MapsView(pn.viewable.Viewer):
 
     def open_link(self) -> None:
         """The page opened on the Maps tab: compute the link's map if it is no heavier than the
-        default map (a disk-cached map is read, not recomputed); a heavier one waits for Compute,
-        so that a link cannot make the server work minutes for each visitor."""
+        default map; a heavier one is only read from the disk cache, or waits for Compute, so
+        that a link cannot make the server work minutes for each visitor."""
         if self.state.result is None:  # the first run is still in a worker: once it is in
             def once(event) -> None:
                 if event.new is not None:
@@ -243,12 +245,15 @@ class MapsView(pn.viewable.Viewer):
                  * (m.param.transient.default + m.param.record.default))
         nx, ny = req["x_values"].size, req["y_values"].size
         periods = req["transient"] + req["record"]
-        if nx * ny * periods <= light:
-            self.compute()
-        else:
-            self.run.say(
-                f"This link asks for a map of {nx} × {ny} = {nx * ny} points over {periods} periods "
-                "each, more than a link computes by itself: press Compute to run it.")
+        self.compute(req, cached_only=nx * ny * periods > light)
+
+    def _not_cached(self, req: dict) -> None:
+        """A heavy link's map is not in the disk cache: it waits for Compute."""
+        nx, ny = req["x_values"].size, req["y_values"].size
+        self.run.say(
+            f"This link asks for a map of {nx} × {ny} = {nx * ny} points over "
+            f"{req['transient'] + req['record']} periods each, more than a link computes by itself "
+            "and not in the disk cache: press Compute to run it.")
 
     def cancel(self, text: str | None = None) -> None:
         """Stop the map's job (``text``, if given, replaces the status)."""

@@ -67,12 +67,21 @@ def _client(address: str) -> Any:
 
 
 def regime_map(params: RattleParams, phys: Any, x_name: str, x_values: np.ndarray, y_name: str,
-               y_values: np.ndarray, transient: int, record: int, scheduler: str = "") -> Any:
+               y_values: np.ndarray, transient: int, record: int, scheduler: str = "",
+               cached_only: bool = False) -> Any:
     """A regime map or basins over two axes (``rattle_core.store.requests.run_map``), on Dask if given.
 
-    ``scheduler`` comes from the server's command line only, never from a page.
+    ``scheduler`` comes from the server's command line only, never from a page. With
+    ``cached_only``, the map is read from the disk cache or not made at all (None).
     """
-    from ..core import run_map
+    from ..core import NotCached, read_only, run_map
+    if cached_only:
+        try:
+            with read_only():
+                return run_map(params, phys, x_name, x_values, y_name, y_values, use_cache=True,
+                               transient=transient, record=record)
+        except NotCached:
+            return None
     executor = _client(scheduler) if scheduler else None
     kwargs = {"executor": executor} if executor is not None else {}
     with executor.as_current() if executor is not None else contextlib.nullcontext():

@@ -22,12 +22,17 @@ Size
     :data:`DEFAULT_SIZE_MB`, 1024).  After each write the least recently used entries (a hit
     counts as a use) are deleted until the cache fits; the entry just written is kept.
     Temporary files of writers that died (their pid is gone, or a day passed) are deleted too.
+Read only
+    Inside ``with read_only():`` a miss raises :class:`NotCached` instead of computing: a
+    caller may serve a request that ran before without paying for one that did not.
 Location
     ``$RATTLE_CACHE_DIR``, else ``$XDG_CACHE_HOME/rattle-explorer``, else
     ``~/.cache/rattle-explorer``.
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import dataclasses
 import math
 import os
@@ -116,6 +121,23 @@ def map_request(kind: str, params: RattleParams, x_name: str, x_values, y_name: 
 
 # ----- the one wrapper ----------------------------------------------------------------------
 
+class NotCached(LookupError):
+    """A request missed the cache inside :func:`read_only`."""
+
+
+_READ_ONLY: contextvars.ContextVar[bool] = contextvars.ContextVar("read_only", default=False)
+
+
+@contextlib.contextmanager
+def read_only() -> Any:
+    """Within the block, a cache miss raises :class:`NotCached` and nothing is computed."""
+    token = _READ_ONLY.set(True)
+    try:
+        yield
+    finally:
+        _READ_ONLY.reset(token)
+
+
 def cached(prefix: str, request: dict, compute: Callable[[], Any],
            load: Callable[[Any], tuple[Any, dict]], save: Callable[..., None],
            holds: Callable[[Any], bool], directory: Path | str | None = None,
@@ -142,6 +164,8 @@ def cached(prefix: str, request: dict, compute: Callable[[], Any],
             pass  # unreadable, forged or foreign entry: recompute and overwrite it below
     elif os.path.lexists(path):
         storable = False
+    if _READ_ONLY.get():
+        raise NotCached(f"{prefix} {key[:12]} is not in the cache")
     result = compute()
     if storable and not result.cancelled:
         try:
