@@ -38,6 +38,7 @@ from rattle_core.store.cache import NotCached, cached, cached_sweep, read_only
 from rattle_core.store.files import atomic_savez
 from rattle_core.store.exports import impacts_frame
 from rattle_core.store.requests import run_map
+from rattle_core.batch.executor import local_cluster
 from rattle_core.solver.trajectory import MAX_T0, SOLVER_VERSION
 from rattle_core.analysis.loudness import SAMPLE_RATE as LOUDNESS_RATE
 from rattle_core.analysis.loudness import loudness
@@ -62,7 +63,8 @@ __all__ = [
     "CONTINUATION_VERSION", "ContinuationResult", "SOLVER_VERSION", "MAX_T0", "continue_orbit",
     "find_orbit", "atomic_savez", "cached", "cached_sweep", "find_asset", "list_assets", "load_asset", "contact_boundary", "excitation",
     "units", "PhysicalParams", "REGIMES", "TWO_PI", "MAP_PHYSICAL_AXES", "REGIME_CODES",
-    "NotCached", "read_only", "REGIME_COLOURS", "REGIME_RULES", "plan_map", "point_params", "run_map", "PAPER_CASES",
+    "REGIME_COLOURS", "REGIME_RULES", "plan_map", "point_params", "run_map", "PAPER_CASES",
+    "NotCached", "read_only", "local_cluster",
     "core_phi2_to_paper", "paper_phi2_to_core", "AMPLITUDE_RANGE", "J_RANGE", "LAM_RANGE",
     "MAX_HARMONICS", "PHASE_RANGE_DEG", "R_RANGE", "V_STICK_RANGE", "check_range",
     "core_to_paper_phases", "paper_to_core_phases", "DEFAULT_EXCITATION_HZ", "DEFAULT_MODES",

@@ -197,7 +197,7 @@ def serve(port: int = 5006, address: str = "localhost", show: bool = False,
         raise ValueError(f"dask = {dask!r}; the only value is 'local'")
     with contextlib.ExitStack() as stack:
         if dask == "local":
-            from rattle_core.batch.executor import local_cluster
+            from .core import local_cluster
             with _sigint_ignored():
                 cluster = local_cluster(2)
             if not threaded:  # a server that returns keeps its cluster; one that ends closes it
