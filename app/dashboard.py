@@ -79,7 +79,7 @@ class Dashboard:
         self.curve = CurveView(state=s, jobs=jobs)
         self.maps = MapsView(state=s, jobs=jobs, settings=self.session.map_settings)
         self.atlas = AtlasView(state=s, jobs=jobs, maps=self.maps)
-        self.gearbox = GearboxView(state=s, jobs=jobs)
+        self.gearbox = GearboxView(state=s, jobs=jobs, settings=self.session.gearbox_settings)
         self.present = PresentView(state=s)
         self.views = [self.controls, self.units, self.regime, self.pin, self.noise,
                       self.time_history, self.section, self.motion,

@@ -37,7 +37,8 @@ from rattle_core import SolverError
 
 from .work import jobs as jobs_module
 from .pinning import Pinner, drop_bad_pin
-from .state import (MAP_URL_KEYS, PHYSICAL_KEYS, RUN_KEYS, URL_KEYS, ExplorerState, MapSettings,
+from .state import (GEARBOX_URL_KEYS, MAP_URL_KEYS, PHYSICAL_KEYS, RUN_KEYS, URL_KEYS,
+                    ExplorerState, GearboxSettings, MapSettings,
                     Run, field_of_error, rattle_params, rejection)
 from .physical import LinkError, link, run_physical
 from .query import readable
@@ -125,8 +126,11 @@ class Session:
         self.state = ExplorerState()
         #: The Maps tab's request, in the URL beside the state.
         self.map_settings = MapSettings()
+        #: The Gearbox tab's settings, in the URL too.
+        self.gearbox_settings = GearboxSettings()
         #: What the URL carries: each synced object with its parameter → key names.
-        self.synced = ((self.state, URL_KEYS), (self.map_settings, MAP_URL_KEYS))
+        self.synced = ((self.state, URL_KEYS), (self.map_settings, MAP_URL_KEYS),
+                       (self.gearbox_settings, GEARBOX_URL_KEYS))
         self.jobs = SessionJobs(self.key, doc, pool)
         self.page = PageRun(self.jobs)
         #: ``(params, run kwargs)`` of ``state.result``: a pin of the same run reuses it.

@@ -15,7 +15,8 @@ user switches, so the model does not change; :func:`rattle_params` converts to t
 
 The URL keys are the parameter names (physical inputs have short keys, :data:`URL_KEYS`);
 the Maps tab's :class:`MapSettings` are URL keys too, each with a ``map_`` prefix
-(:data:`MAP_URL_KEYS`).
+(:data:`MAP_URL_KEYS`), and so are the Gearbox tab's :class:`GearboxSettings`, with ``gb_``
+(:data:`GEARBOX_URL_KEYS`; the gears and the measurement are files, not in the URL).
 A pinned run (``pinned``, URL key ``pin``) is checked and run by :mod:`app.pinning`.
 """
 from __future__ import annotations
@@ -266,7 +267,9 @@ class MapSettings(Said):
 
 class GearboxSettings(Said):
     """The Gearbox tab's request: the excitation's orders, the speeds, the sound's level, the
-    run's periods, and the what-if variant, with bounds."""
+    run's periods, and the what-if variant, with bounds.
+
+    Its parameters are URL keys too (:data:`GEARBOX_URL_KEYS`), so a shared link reopens them."""
 
     engine_order = param.Number(2.0, bounds=(0.5, 50.0), label="engine order of the fundamental")
     harmonics = param.Integer(3, bounds=(1, 6), label="harmonics")
@@ -293,6 +296,8 @@ URL_KEYS.update(inertia="J", radius="Rb", drag_torque="C", backlash_um="b_um", b
                 curve_param2="curve_in", pinned="pin")
 #: Map settings → URL query keys (``map_`` and the setting: ``map_x_axis``, ``map_x_num``, …).
 MAP_URL_KEYS = {n: f"map_{n}" for n in MapSettings.param if n not in ("name", "messages")}
+#: Gearbox settings → URL query keys (``gb_`` and the setting: ``gb_rpm_start``, …).
+GEARBOX_URL_KEYS = {n: f"gb_{n}" for n in GearboxSettings.param if n not in ("name", "messages")}
 #: Parameters that change the trajectory.
 RUN_KEYS = ("lam", "r", "j", "h2", "phi2", "phases", "harmonics", "v_stick", "noise", "periods",
             "transient",

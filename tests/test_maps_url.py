@@ -132,3 +132,27 @@ def test_every_map_setting_is_a_url_key():
     """Each MapSettings parameter has its map_ key (and nothing else does)."""
     assert set(MAP_URL_KEYS) == set(MapSettings.param) - {"name", "messages"}
     assert all(k == f"map_{n}" for n, k in MAP_URL_KEYS.items())
+
+
+def test_a_link_reopens_the_gearbox_tab_with_its_settings(linked):
+    """tab=gearbox with speeds, periods and a variant: the Gearbox tab has the link's settings,
+    a refused value names its range, and a change on the page goes into the URL."""
+    d, loc = linked("?tab=gearbox&gb_rpm_start=1200&gb_rpm_stop=2600&gb_rpm_num=8&gb_record=50"
+                    "&gb_variant=backlash&gb_backlash_change_um=-25&gb_harmonics=99")
+    g = d.gearbox.settings
+    assert d.tabs.active == 2 and g is d.session.gearbox_settings
+    assert (g.rpm_start, g.rpm_stop, g.rpm_num, g.record) == (1200.0, 2600.0, 8, 50)
+    assert (g.variant, g.backlash_change_um) == ("backlash", -25.0)
+    assert g.harmonics == 3 and "[1, 6]" in g.messages["harmonics"]
+    g.rpm_num = 5
+    q = query(loc)
+    assert (q["gb_rpm_num"], q["gb_variant"], q["gb_harmonics"]) == ("5", "backlash", "3")
+
+
+def test_every_gearbox_setting_is_a_url_key():
+    """Each GearboxSettings parameter has its gb_ key, and no key is another's."""
+    from app.state import GEARBOX_URL_KEYS, URL_KEYS, GearboxSettings
+    assert set(GEARBOX_URL_KEYS) == set(GearboxSettings.param) - {"name", "messages"}
+    assert all(k == f"gb_{n}" for n, k in GEARBOX_URL_KEYS.items())
+    keys = [*URL_KEYS.values(), *MAP_URL_KEYS.values(), *GEARBOX_URL_KEYS.values()]
+    assert len(keys) == len(set(keys))

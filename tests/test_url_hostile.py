@@ -18,11 +18,11 @@ from panel.io.location import Location
 
 from app.main import configure
 from app.session import Session
-from app.state import MAP_URL_KEYS, URL_KEYS
+from app.state import GEARBOX_URL_KEYS, MAP_URL_KEYS, URL_KEYS
 
 configure()
-#: Every URL key: the state's and the Maps tab's settings'.
-KEYS = sorted([*URL_KEYS.values(), *MAP_URL_KEYS.values()])
+#: Every URL key: the state's, the Maps tab's settings' and the Gearbox tab's settings'.
+KEYS = sorted([*URL_KEYS.values(), *MAP_URL_KEYS.values(), *GEARBOX_URL_KEYS.values()])
 
 hostile = st.one_of(
     st.integers(4301, 6000).map(lambda n: "9" * n),                       # int() refuses these

@@ -51,12 +51,15 @@ class GearboxView(pn.viewable.Viewer):
 
     state = param.ClassSelector(class_=ExplorerState)
     jobs = param.Parameter()
+    #: The tab's request; the session's own (in the URL) on the page.
+    settings = param.ClassSelector(class_=GearboxSettings)
     revision = param.Integer(0)
     orders_revision = param.Integer(0)
 
     def __init__(self, **params: Any):
         super().__init__(**params)
-        self.settings = GearboxSettings()
+        if self.settings is None:
+            self.settings = GearboxSettings()
         self.order_map: Any = None
         self.constant: Any = None  # constant orders from an uploaded gearbox file
         self.base: Any = None
