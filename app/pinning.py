@@ -1,15 +1,21 @@
 """A pinned run (A) beside the live one (B): the pin's text, its checks, and its one run.
 
 The pin (``state.pinned``, URL key ``pin``) is the text of the settings that decide a run,
-``'lam:3.3;r:0.65;…'`` over :data:`PIN_KEYS` (:func:`pin_text`). :func:`parse_pin` reads it
+``'lam:3.3;r:0.65;…'`` over :data:`PIN_KEYS` (:func:`pin_text`). In physical units it also
+holds the physical inputs (:data:`PIN_PHYSICAL_KEYS`) that give A its physical scale (time
+in ms, engine speed), so a link reopens A as the page pinned it. :func:`parse_pin` reads it
 back, checking each item as the state checks that parameter, and names the item at fault and
-its allowed range. A link whose pin does not parse loses it before the page reads the link
+its allowed range; physical inputs must describe the pin's own Λ and j. A link whose pin does not parse loses it before the page reads the link
 (:func:`drop_bad_pin`), with a message beside the pin, as other unusable URL values do.
 
 :class:`Pinner` (one per session) computes A once, when the pin changes, through the same
 budgeted path as the live run (a :class:`~app.work.page_run.PageRun` of its own job kind, so
 neither run cancels the other) and publishes it as ``state.pinned_result``; pinning the run
-on the page reuses ``state.result`` itself. A pin that does not parse or cannot run is
+on the page reuses ``state.result`` itself. A pin with physical inputs has a physical side
+(``Run.phys``, computed by :func:`app.physical.run_physical` as for the live run); a pin
+without them (made on a dimensionless page, or an older link) has none, whatever the page's
+mode: its physical scale is unknown, so in physical units its time history and its place on
+the engine-speed diagram are not drawn (its section and Λ or φ₂ markers are). A pin that does not parse or cannot run is
 refused: a message beside it, and the last pin and its run come back.
 """
 from __future__ import annotations
@@ -21,22 +27,29 @@ import param
 
 from rattle_core import SolverError
 
-from .state import RUN_KEYS, ExplorerState, Run, rattle_params, rejection
+from .physical import physical_of, run_physical
+from .state import PHYSICAL_KEYS, RUN_KEYS, ExplorerState, Run, rattle_params, rejection
 from .ui.labels import short
 from .work.page_run import PageRun, run_kwargs
 from .work.threads import HV_LOCK
 
 #: What a pin holds: everything that decides a run (its model and its run settings).
 PIN_KEYS = RUN_KEYS
+#: What a pin made in physical units holds besides: the inputs of A's physical scale.
+PIN_PHYSICAL_KEYS = PHYSICAL_KEYS
 #: Longest pin read, in characters (a pin of 32 harmonics is about 700).
 MAX_PIN = 1500
 
 
 def pin_text(state: ExplorerState) -> str:
     """The run ``state`` asks for as a pin: ``'lam:3.3;r:0.65;…'`` (every key of
-    :data:`PIN_KEYS`, floats as their shortest exact text, an empty start as nothing)."""
+    :data:`PIN_KEYS`, floats as their shortest exact text, an empty start as nothing), and
+    the keys of :data:`PIN_PHYSICAL_KEYS` while the run has a physical side."""
+    names = PIN_KEYS
+    if state.units and run_physical(state, rattle_params(state)) is not None:
+        names = (*PIN_KEYS, *PIN_PHYSICAL_KEYS)
     items = []
-    for name in PIN_KEYS:
+    for name in names:
         value = getattr(state, name)
         text = "" if value is None else (repr(value) if isinstance(value, float) else str(value))
         items.append(f"{name}:{text}")
@@ -80,8 +93,9 @@ def parse_pin(text: Any) -> dict[str, Any]:
         name, sep, raw = item.partition(":")
         if not sep:
             raise ValueError(f"pin item {short(item, 30)} must be 'key:value', e.g. 'lam:3.3'")
-        if name not in PIN_KEYS:
-            raise ValueError(f"pin key {short(name, 20)} is unknown; allowed: {', '.join(PIN_KEYS)}")
+        if name not in PIN_KEYS and name not in PIN_PHYSICAL_KEYS:
+            raise ValueError(f"pin key {short(name, 20)} is unknown; allowed: "
+                             f"{', '.join((*PIN_KEYS, *PIN_PHYSICAL_KEYS))}")
         if name in values:
             raise ValueError(f"pin key {name!r} is given twice")
         value = _value(name, raw.strip())
@@ -92,12 +106,34 @@ def parse_pin(text: Any) -> dict[str, Any]:
         values[name] = value
     if not values:
         raise ValueError("a pin must hold at least one 'key:value' item, e.g. 'lam:3.3'")
+    if physical(values):
+        _check_physical(ExplorerState(**values, units=True))
     return values
 
 
+def physical(values: dict[str, Any]) -> bool:
+    """Whether pin values hold physical inputs (then A has a physical side)."""
+    return any(name in values for name in PIN_PHYSICAL_KEYS)
+
+
+def _check_physical(ps: ExplorerState) -> None:
+    """Refuse physical inputs that describe no model, or not the pin's own Λ and j (the live
+    run's test, :func:`app.physical.run_physical`); inputs left out take their defaults."""
+    params = rattle_params(ps)
+    try:
+        q = physical_of(ps, params).to_dimensionless()
+    except ValueError as exc:
+        raise ValueError(f"pin: its physical inputs describe no model: {exc}") from None
+    if run_physical(ps, params) is None:
+        raise ValueError(f"pin: its physical inputs give Λ = {q.lam:.6g}, j = {q.j:.6g}, not "
+                         f"its Λ = {params.lam:.6g}, j = {params.j:.6g}")
+
+
 def pinned_state(text: str) -> ExplorerState:
-    """A state holding the pin's run settings (the rest default), to build its run from."""
-    return ExplorerState(**parse_pin(text))
+    """A state holding the pin's run settings (the rest default), to build its run from; in
+    physical units when the pin holds physical inputs."""
+    values = parse_pin(text)
+    return ExplorerState(**values, units=physical(values))
 
 
 def drop_bad_pin(search: str, state: ExplorerState) -> str:
@@ -146,14 +182,16 @@ class Pinner:
             self._refuse(str(exc))
             return
         params, kwargs = rattle_params(ps), run_kwargs(ps)
-        if s.result is not None and self.published() == (params, kwargs):
+        phys = run_physical(ps, params)
+        # the live run is A only if its physical side is A's too (none, for a pin without one)
+        if s.result is not None and self.published() == (params, kwargs) and s.result.phys == phys:
             self._publish(text, s.result)
             return
         s.pinned_result = None  # until A's run is in, nothing is drawn as A
 
         def done(out: tuple) -> None:
             tr, cls, ms = out
-            self._publish(text, Run(params=params, tr=tr, cls=cls, phys=None, phases=ps.phases,
+            self._publish(text, Run(params=params, tr=tr, cls=cls, phys=phys, phases=ps.phases,
                                     ms=ms))
         try:
             out = self.page.run(params, kwargs, done, self._refuse)

@@ -13,9 +13,10 @@ import pytest
 from panel.io.location import Location
 
 from app import state as st
-from app.pinning import PIN_KEYS, parse_pin, pin_text, pinned_state
+from app.pinning import PIN_KEYS, PIN_PHYSICAL_KEYS, parse_pin, pin_text, pinned_state
 from app.session import Session
 from app.ui.labels import message_html
+from app.ui.plots import time_history_data
 from rattle_core import RattleParams, simulate
 from rattle_core.model.phases import paper_to_core_phases
 
@@ -61,6 +62,10 @@ def test_pin_text_round_trips_every_run_setting():
     ("harmonics:2:0.1:0", "harmonic order '2' must be a whole number in [3, 32]"),
     ("colour:red", "pin key 'colour' is unknown"),
     ("lam:3;lam:4", "pin key 'lam' is given twice"),
+    ("rpm:-5", "engine speed [rpm] = -5.0 is outside the allowed range; allowed (0, 100000]"),
+    ("drag_torque:abc", "C must be a number, got 'abc'; allowed (0, 10000]"),
+    ("excitation:torque", "excitation = 'torque' is not allowed; allowed: displacement, acceleration"),
+    ("lam:3.3;rpm:2000", "its physical inputs give Λ = 0.877298, j = 8, not its Λ = 3.3, j = 8"),
     (";;", "at least one 'key:value' item"),
 ])
 def test_a_bad_pin_is_refused_naming_the_item_and_range(text, fragment):
@@ -170,6 +175,8 @@ def test_the_pin_survives_the_url_round_trip():
     ("lam:-5", "Λ = -5.0 is outside the allowed range; allowed (1e-06, 10000]"),
     ("<script>alert(1)</script>", "must be 'key:value'"),
     ("lam:3.3;evil:<b>x</b>", "pin key 'evil' is unknown"),
+    ("lam:3.3;rpm:1e9", "engine speed [rpm] = 1000000000.0 is outside the allowed range; "
+                        "allowed (0, 100000]"),
 ])
 def test_a_bad_pin_in_the_url_is_refused_with_a_message(pin, fragment):
     """A link's bad pin: the page draws B, no A, a message beside the pin, and the URL says no pin;
@@ -256,3 +263,128 @@ def test_the_caption_is_text_and_says_how_to_pin():
     view.pin()
     assert "A: Λ = 3.3" in view.caption.object and not view.unpin_button.disabled
     assert math.isclose(parse_pin(s.pinned)["lam"], 3.3)
+
+
+# ----- physical units ---------------------------------------------------------------------------
+
+def physical_pin(**changes) -> tuple[str, dict]:
+    """A pin made on a page in physical units after ``changes`` (the physical side follows)."""
+    session = Session()
+    s = session.state
+    s.units = True
+    for name, value in changes.items():  # one at a time, as the page's controls make them
+        setattr(s, name, value)
+        assert getattr(s, name) == value
+    assert s.result.phys is not None
+    return pin_text(s), {k: getattr(s, k) for k in (*PIN_KEYS, *PIN_PHYSICAL_KEYS)}
+
+
+def linked(search: str, job_pool):
+    from app.dashboard import Dashboard
+    from app.main import configure, warm_up
+    configure()
+    warm_up(pool=False)
+    return Dashboard(location=Location(search=search), pool=job_pool)
+
+
+def test_a_physical_pin_round_trips_its_physical_inputs():
+    """In physical units the pin also holds the physical inputs, and reads back exactly; on a
+    dimensionless page it holds none."""
+    text, values = physical_pin(phases="core", rpm=1234.5, lam=2.5)
+    assert parse_pin(text) == values and values["phases"] == "core"
+    assert values["lam"] == 2.5 and values["rpm"] != 1234.5  # Λ moved the engine speed
+    assert all(f";{k}:" in text for k in PIN_PHYSICAL_KEYS)
+    assert pinned_state(text).units and not pinned_state("lam:2.5").units
+    assert not any(f";{k}:" in pin_text(st.ExplorerState()) for k in PIN_PHYSICAL_KEYS)
+
+
+def test_a_physical_pin_from_a_link_is_drawn_in_ms_and_on_the_rpm_diagram(job_pool):
+    """A link in physical units holding a physical pin: A has its physical side (its rpm, the
+    pin's), its time history is the core's run of A with time in ms from the start, as
+    t / ω with ω = order · 2π · rpm / 60, and positions R_b θ₁ x in µm; the engine-speed
+    diagram marks A at its rpm and B at B's."""
+    from bokeh.document import Document
+    text, a_in = physical_pin(lam=2.5)
+    dash = linked("?" + urllib.parse.urlencode({"units": "true", "lam": 3.3, "pin": text}), job_pool)
+    try:
+        s = dash.state
+        assert s.units and s.result.phys is not None and "pinned" not in s.messages
+        a = s.pinned_result
+        assert a is not None and a.phys is not None and a is not s.result
+        assert a.params.lam == 2.5 and a.phys.rpm == a_in["rpm"] != s.result.phys.rpm
+        ref = independent(2.5, 45.0)
+        omega = a_in["order"] * 2.0 * math.pi * a_in["rpm"] / 60.0
+        trace = dash.time_history.sources["pinned"].data
+        t_ms = np.asarray(trace["t"])
+        assert len(t_ms) > 100 and t_ms[0] == 0.0
+        assert t_ms[-1] == pytest.approx(1e3 * 2.0 * math.pi * s.shown / omega, rel=1e-12)
+        x_ref, _ = ref.sample(ref.t_start + t_ms * 1e-3 * omega)
+        np.testing.assert_allclose(trace["x"], 1e6 * a_in["radius"] * a_in["amp1"] * x_ref,
+                                   rtol=1e-9, atol=1e-9)
+        assert dash.time_history.fig.legend[0].items[1].visible
+        d = dash.diagram
+        d.pane.get_root(Document())
+        assert d.swept() == "rpm"
+        assert d.pins.location == pytest.approx(a_in["rpm"], rel=1e-12)
+        assert d.pins.models[1].visible and d.pins.models[1].x == d.pins.location
+        assert d.marker == pytest.approx(s.result.phys.rpm, rel=1e-12)
+    finally:
+        dash.destroy()
+
+
+def test_a_physical_pin_made_on_the_page_reuses_the_run_and_reopens_the_same(job_pool):
+    """Pinned on a page in physical units, A is the run shown (its physical side too); its link
+    reopens A with the same physical set and the same time-history trace."""
+    session, loc = opened("?units=true&lam=2.5")
+    s = session.state
+    runs, a = session.runs, s.result
+    s.pinned = pin_text(s)
+    assert s.pinned_result is a and session.runs == runs and a.phys is not None
+    s.lam = 3.0
+    assert s.pinned_result is a and s.result.phys.rpm != a.phys.rpm
+    again = linked(loc.search, job_pool)
+    try:
+        assert again.state.pinned == s.pinned and again.state.pinned_result.phys == a.phys
+        mine = dash_trace(again)
+        page = time_history_data(a.tr, s.shown, a.phys)["motion"]
+        assert len(mine["t"]) > 100 and mine["t"][0] == 0.0
+        np.testing.assert_array_equal(mine["t"], page["t"])
+        np.testing.assert_array_equal(mine["x"], page["x"])
+    finally:
+        again.destroy()
+
+
+def dash_trace(dash) -> dict:
+    return {k: np.asarray(v) for k, v in dash.time_history.sources["pinned"].data.items()}
+
+
+def test_a_dimensionless_pin_in_physical_units_has_no_physical_side(job_pool):
+    """A pin without physical inputs (an older link) in physical units: A is run with no physical
+    side, since its scale is unknown; its section points and caption are drawn, its time
+    history and its place on the engine-speed diagram are not. On a dimensionless page a
+    physical pin's A is drawn dimensionless."""
+    from bokeh.document import Document
+    dash = linked("?units=true&lam=3.3&pin=" + urllib.parse.quote("lam:2.5;h2:0;phi2:0"), job_pool)
+    try:
+        s = dash.state
+        a = s.pinned_result
+        assert a is not None and a.phys is None and a.params.lam == 2.5 and "pinned" not in s.messages
+        assert s.result.phys is not None
+        assert len(dash.time_history.sources["pinned"].data["t"]) == 0
+        assert not dash.time_history.fig.legend[0].items[1].visible
+        np.testing.assert_array_equal(dash.section.pinned_points()[0], independent(2.5, 0.0, 0.0).strobe_x)
+        assert dash.pin.lines()[0].startswith("A: Λ = 2.5")
+        d = dash.diagram
+        d.pane.get_root(Document())
+        assert d.swept() == "rpm" and d.pins.location is None
+        text, _ = physical_pin(lam=2.5)
+        s.units = False
+        s.pinned = text
+        assert s.pinned_result.phys is not None and s.result.phys is None
+        trace = dash_trace(dash)
+        ref = independent(2.5, 45.0)
+        x_ref, _ = ref.sample(trace["t"])
+        assert trace["t"][0] == pytest.approx(ref.t_start)
+        np.testing.assert_allclose(trace["x"], x_ref, rtol=0, atol=1e-12)
+    finally:
+        dash.destroy()

@@ -100,3 +100,23 @@ def test_unpin_clears_a_from_the_page(page, dashboard_server):
         i => i[0] !== 'A (pinned): gear x(t)' || (!i[1] && i[2] == 0))""", timeout=30_000)
     page.wait_for_function("() => new URLSearchParams(window.location.search).get('pin') === ''",
                            timeout=20_000)
+
+
+def test_a_physical_pin_from_a_link_is_drawn_in_ms(page, dashboard_server):
+    """A link in physical units holding a pin made in that mode: the page draws A's time history
+    on the ms axis beside B's, and marks A at its engine speed on the engine-speed diagram."""
+    from urllib.parse import urlencode
+
+    from test_pin import physical_pin
+    text, a_in = physical_pin(lam=2.5)
+    errors = open_dashboard(page, dashboard_server, "?" + urlencode({"units": 1, "lam": 3.3, "pin": text}))
+    page.wait_for_function(f"""() => ({LEGEND})('time_history').some(
+        i => i[0] === 'A (pinned): gear x(t)' && i[1] && i[2] > 100)""", timeout=30_000)
+    label = page.evaluate("() => Bokeh.documents[0].get_model_by_name('time_history')"
+                          ".below[0].axis_label")
+    assert label == "t [ms]"
+    wait_bif(page)
+    page.wait_for_function(f"() => {{ const m = ({MARKS})(); return m != null && m.a_shown; }}",
+                           timeout=30_000)
+    assert page.evaluate(MARKS)["a"] == pytest.approx(a_in["rpm"], rel=1e-9)
+    assert errors == [] and dashboard_server["log"].tracebacks() == []

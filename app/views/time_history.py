@@ -20,7 +20,8 @@ entry of their own, in their own colour.
 
 A pinned run (``state.pinned_result``, A) is drawn as its gear's trace alone, dashed in a
 muted colour, over the live run (B); the legend then names the two gears A and B. In physical
-units A is drawn only when it has a physical side of its own (a run pinned in that mode).
+units A is drawn only when it has a physical side of its own (a run pinned in that mode, on the
+page or from its link); on a dimensionless page A is drawn dimensionless.
 """
 from __future__ import annotations
 
@@ -158,9 +159,10 @@ class TimeHistoryView(pn.viewable.Viewer):
         """A's gear trace ``{t, x}`` in the axes of the live run ``run``, or None when there is
         no pin (or, in physical units, A has no physical side to scale it by)."""
         a = self.state.pinned_result
-        if a is None or (run.phys is not None) != (a.phys is not None):
+        if a is None or (run.phys is not None and a.phys is None):
             return None
-        data = time_history_data(a.tr, min(self.state.shown, int(a.tr.periods)), a.phys,
+        phys = a.phys if run.phys is not None else None
+        data = time_history_data(a.tr, min(self.state.shown, int(a.tr.periods)), phys,
                                  angle=self.state.backlash_unit == "deg")
         return {"t": data["motion"]["t"], "x": data["motion"]["x"]}
 
