@@ -40,13 +40,16 @@ from .ui.widgets import message
 SIDEBAR_WIDTH = 380
 #: The main tabs, in order, as the state's ``tab`` (and the URL) names them.
 TABS = ("explorer", "maps", "gearbox")
-#: While presenting, the Explorer tab lays the time history and the section side by side.
+#: While presenting, the Explorer tab is a grid as high as the main area: the regime's row on
+#: top, and below it the time history and the section side by side, sharing what is left.
 EXPLORER_CSS = f"""
-:host(.{PRESENTING}) {{ flex-direction: row !important; flex-wrap: wrap !important;
-                        align-items: flex-start !important; }}
-:host(.{PRESENTING}) > * {{ flex: 1 1 100% !important; }}
+:host(.{PRESENTING}) {{ display: grid !important; height: 100% !important; column-gap: 10px;
+                        grid-template-columns: minmax(0, 1fr) minmax(0, 1fr);
+                        grid-template-rows: auto minmax(0, 1fr); }}
+:host(.{PRESENTING}) > * {{ grid-column: 1 / -1; }}
 :host(.{PRESENTING}) > .th-cell, :host(.{PRESENTING}) > .section-row {{
-    flex: 1 1 40% !important; width: auto !important; min-width: 0 !important; }}
+    grid-column: auto; width: auto !important; height: auto !important; align-self: stretch !important;
+    min-width: 0 !important; min-height: 0 !important; }}
 """
 #: Every live dashboard (weakly held): a closed session's must disappear from here.
 LIVE: "weakref.WeakSet[Dashboard]" = weakref.WeakSet()

@@ -26,7 +26,9 @@ PAGE_MARK = "rattle-presenting"
 PAGE_CSS = f"""
 body:has(.{PAGE_MARK}) #sidebar {{ display: none !important; }}
 body:has(.{PAGE_MARK}) #sidebar-toggle {{ display: none !important; }}
-body:has(.{PAGE_MARK}) #main {{ overflow: hidden !important; padding-top: 4px; }}
+body:has(.{PAGE_MARK}) #main {{ overflow: hidden !important; padding-top: 4px;
+                                display: flex !important; flex-direction: column; }}
+body:has(.{PAGE_MARK}) #main > * > .main-tabs {{ flex: 1 1 0 !important; min-height: 0 !important; }}
 body:has(.{PAGE_MARK}) #header {{ padding-top: 0 !important; padding-bottom: 0 !important; }}
 """
 

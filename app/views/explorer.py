@@ -85,12 +85,22 @@ class SectionView(pn.viewable.Viewer):
         self.pane = HoloViewsPane(plot, sizing_mode="stretch_width", min_height=380,
                                       css_classes=["section"])
         self.state.param.watch(self._update, ["result", "section", "pinned_result"])
-        self.state.param.watch(lambda e: self._redraw(), "present")
+        # drawn once the page has loaded, so the first plot (the time history) comes sooner
+        self.layout = pn.Column(self.mode, self.msg, deferred(self.pane), sizing_mode="stretch_width")
+        self.state.param.watch(self._present, "present")
         self._update()
+        self._present()
 
     def __panel__(self):
-        # drawn once the page has loaded, so the first plot (the time history) comes sooner
-        return pn.Column(self.mode, self.msg, deferred(self.pane), sizing_mode="stretch_width")
+        return self.layout
+
+    def _present(self, *_: Any) -> None:
+        """While presenting, the section and what holds it are as high as their cell in the
+        Explorer's grid; the figure follows from the hook (:meth:`_name_plot`)."""
+        mode = "stretch_both" if self.state.present else "stretch_width"
+        for part in (self.layout, self.layout[2], self.pane):
+            part.sizing_mode = mode
+        self._redraw()
 
     @property
     def points(self) -> tuple[np.ndarray, np.ndarray]:
@@ -178,6 +188,9 @@ class SectionView(pn.viewable.Viewer):
         figure_fonts(plot.state, present, title="9pt")
         if plot.state.height != SECTION_HEIGHT[present]:
             plot.state.height = SECTION_HEIGHT[present]
+        mode = "stretch_both" if present else "stretch_width"
+        if plot.state.sizing_mode != mode:
+            plot.state.sizing_mode = mode
         save_as(lambda: self._stem)(plot, element)
 
     @staticmethod

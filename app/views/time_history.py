@@ -124,6 +124,12 @@ class TimeHistoryView(pn.viewable.Viewer):
             legend.ncols = 2 if on else 1
         if self.fig.height != HEIGHT[on]:
             self.fig.height = HEIGHT[on]
+        # while presenting, as high as its cell in the Explorer's grid (the window's height);
+        # set on the figure, not the pane: the pane would copy the figure's stylesheets back
+        # into its own parameters, which take only strings
+        mode = "stretch_both" if on else "stretch_width"
+        if self.fig.sizing_mode != mode:
+            self.fig.sizing_mode = mode
 
     def draw(self, *_: Any) -> None:
         run = self.state.result
