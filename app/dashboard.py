@@ -7,7 +7,8 @@ they meet only in the state. :meth:`Dashboard.destroy` runs when the session clo
 
 Presentation mode (``state.present``) keeps every view and model: the header's button marks
 the page (the template's stylesheet hides the sidebar), the Explorer's stylesheet lays the time
-history and the section side by side, and the parts a lecture does not need are hidden.
+history and the section side by side in the height the window leaves below the header, what
+holds them stretches, and the parts a lecture does not need are hidden.
 """
 from __future__ import annotations
 
@@ -95,6 +96,8 @@ class Dashboard:
                             sizing_mode="stretch_width", margin=0)
         section_row = pn.Row(self.section, self.diagrams, css_classes=["section-row"],
                              sizing_mode="stretch_width")
+        #: What holds the plots: as high as the window while presenting (:meth:`_present`).
+        self.holders = [th_cell, section_row]
         pin, noise, table, motion, sensitivity, sound = (
             pn.Column(v, sizing_mode="stretch_width", margin=0)
             for v in (self.pin, self.noise, self.units.table, self.motion, self.sensitivity,
@@ -130,6 +133,10 @@ class Dashboard:
         if on and self.tabs.active != 0:
             self.tabs.active = 0  # the lecture's plots are on the Explorer tab
         mark([self.explorer, self.tabs], on)
+        # said here, not left to Panel, which would infer it from the stretching plots when
+        # the page is built while presenting, and keep it after
+        for part in (self.tabs, self.explorer, *self.holders):
+            part.sizing_mode = "stretch_both" if on else "stretch_width"
         for part in self.normal_only:
             part.visible = not on
 
