@@ -7,7 +7,8 @@ they meet only in the state. :meth:`Dashboard.destroy` runs when the session clo
 
 Presentation mode (``state.present``) keeps every view and model: the header's button marks
 the page (the template's stylesheet hides the sidebar), the Explorer's stylesheet lays the time
-history and the section side by side, and the parts a lecture does not need are hidden.
+history and the section side by side in the height the window leaves below the header, what
+holds them stretches, and the parts a lecture does not need are hidden.
 """
 from __future__ import annotations
 
@@ -40,13 +41,16 @@ from .ui.widgets import message
 SIDEBAR_WIDTH = 380
 #: The main tabs, in order, as the state's ``tab`` (and the URL) names them.
 TABS = ("explorer", "maps", "gearbox")
-#: While presenting, the Explorer tab lays the time history and the section side by side.
+#: While presenting, the Explorer tab is a grid as high as the main area: the regime's row on
+#: top, and below it the time history and the section side by side, sharing what is left.
 EXPLORER_CSS = f"""
-:host(.{PRESENTING}) {{ flex-direction: row !important; flex-wrap: wrap !important;
-                        align-items: flex-start !important; }}
-:host(.{PRESENTING}) > * {{ flex: 1 1 100% !important; }}
+:host(.{PRESENTING}) {{ display: grid !important; height: 100% !important; column-gap: 10px;
+                        grid-template-columns: minmax(0, 1fr) minmax(0, 1fr);
+                        grid-template-rows: auto minmax(0, 1fr); }}
+:host(.{PRESENTING}) > * {{ grid-column: 1 / -1; }}
 :host(.{PRESENTING}) > .th-cell, :host(.{PRESENTING}) > .section-row {{
-    flex: 1 1 40% !important; width: auto !important; min-width: 0 !important; }}
+    grid-column: auto; width: auto !important; height: auto !important; align-self: stretch !important;
+    min-width: 0 !important; min-height: 0 !important; }}
 """
 #: Every live dashboard (weakly held): a closed session's must disappear from here.
 LIVE: "weakref.WeakSet[Dashboard]" = weakref.WeakSet()
@@ -92,6 +96,8 @@ class Dashboard:
                             sizing_mode="stretch_width", margin=0)
         section_row = pn.Row(self.section, self.diagrams, css_classes=["section-row"],
                              sizing_mode="stretch_width")
+        #: What holds the plots: as high as the window while presenting (:meth:`_present`).
+        self.holders = [th_cell, section_row]
         pin, noise, table, motion, sensitivity, sound = (
             pn.Column(v, sizing_mode="stretch_width", margin=0)
             for v in (self.pin, self.noise, self.units.table, self.motion, self.sensitivity,
@@ -127,6 +133,10 @@ class Dashboard:
         if on and self.tabs.active != 0:
             self.tabs.active = 0  # the lecture's plots are on the Explorer tab
         mark([self.explorer, self.tabs], on)
+        # said here, not left to Panel, which would infer it from the stretching plots when
+        # the page is built while presenting, and keep it after
+        for part in (self.tabs, self.explorer, *self.holders):
+            part.sizing_mode = "stretch_both" if on else "stretch_width"
         for part in self.normal_only:
             part.visible = not on
 

@@ -66,17 +66,20 @@ def test_a_bad_present_value_is_refused_with_a_message():
 # ----- the dashboard in presentation mode ----------------------------------------------------------
 
 def test_presentation_mode_enlarges_the_plots_and_hides_the_rest_and_exit_restores(dash):
-    """Present: taller figures, fonts ≥ 1.4×, the lecture's parts only; exit: all as before."""
+    """Present: figures that fill their cells (as high as the window allows), fonts ≥ 1.4×, the
+    lecture's parts only; exit: all as before."""
     th, s = dash.time_history.fig, dash.state
-    before = (th.height, th.xaxis[0].major_label_text_font_size, th.xaxis[0].axis_label_text_font_size)
+    before = (th.height, th.sizing_mode, th.xaxis[0].major_label_text_font_size,
+              th.xaxis[0].axis_label_text_font_size)
+    section = (dash.section.pane.sizing_mode, dash.section.pane.min_height)
     assert all(part.visible for part in dash.normal_only)
     assert dash.present.button.label == "Present"
 
     dash.present.button.clicks += 1
     assert s.present is True
-    assert th.height > before[0]
-    assert px(th.xaxis[0].major_label_text_font_size) >= 1.4 * px(before[1])
-    assert px(th.xaxis[0].axis_label_text_font_size) >= 1.4 * px(before[2])
+    assert th.sizing_mode == dash.section.pane.sizing_mode == "stretch_both"
+    assert px(th.xaxis[0].major_label_text_font_size) >= 1.4 * px(before[2])
+    assert px(th.xaxis[0].axis_label_text_font_size) >= 1.4 * px(before[3])
     assert not any(part.visible for part in dash.normal_only)
     assert "presenting" in dash.explorer.css_classes and "presenting" in dash.regime.badge.css_classes
     assert "rattle-presenting" in dash.present.header.css_classes
@@ -84,8 +87,9 @@ def test_presentation_mode_enlarges_the_plots_and_hides_the_rest_and_exit_restor
 
     dash.present.button.clicks += 1
     assert s.present is False
-    assert (th.height, th.xaxis[0].major_label_text_font_size,
+    assert (th.height, th.sizing_mode, th.xaxis[0].major_label_text_font_size,
             th.xaxis[0].axis_label_text_font_size) == before
+    assert (dash.section.pane.sizing_mode, dash.section.pane.min_height) == section
     assert all(part.visible for part in dash.normal_only)
     assert "presenting" not in dash.explorer.css_classes
     assert "rattle-presenting" not in dash.present.header.css_classes

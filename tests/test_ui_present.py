@@ -1,4 +1,4 @@
-"""Browser tests: presentation mode on a 1280×720 projector, the regime legend and hover help.
+"""Browser tests: presentation mode on a projector of any size, the regime legend and hover help.
 
 Sizes and fonts are read from the page itself: the figures' boxes from their Bokeh views, the
 fonts from the computed styles and the figures' models, whether the page scrolls from the
@@ -7,6 +7,7 @@ document and from the template's main area (which scrolls on its own).
 from __future__ import annotations
 
 import pytest
+from playwright.sync_api import TimeoutError as PlaywrightTimeout
 from playwright.sync_api import expect
 
 from rattle_core.analysis.vocabulary import CLASS_LETTERS
@@ -16,6 +17,10 @@ from test_ui import DEEP, open_dashboard, painted
 pytestmark = [pytest.mark.ui, pytest.mark.timeout(300)]
 
 PROJECTOR = {"width": 1280, "height": 720}
+FULL_HD = {"width": 1920, "height": 1080}
+#: On a large screen each plot is at least this part of the height below the header, and the
+#: two together at least this part of the width.
+FILL_HEIGHT, FILL_WIDTH = 0.7, 0.85
 
 #: What the page looks like: scroll sizes, the two figures' boxes, the fonts, the sidebar.
 LOOK = """() => {
@@ -33,7 +38,17 @@ LOOK = """() => {
     badgeFont: parseFloat(getComputedStyle(deep(document, '.rattle-badge')).fontSize),
     tickFont: parseFloat(th.below[0].major_label_text_font_size),
     sidebar: sidebar.getBoundingClientRect().width,
+    vw: window.innerWidth, vh: window.innerHeight,
+    header: document.getElementById('header').getBoundingClientRect().bottom,
   };
+}"""
+
+#: Both plots fill the window (the thresholds are the argument), and nothing scrolls.
+FILLS = """([fh, fw]) => {
+  const l = (""" + LOOK + """)(), below = l.vh - l.header;
+  return l.th.height >= fh * below && l.section.height >= fh * below
+         && l.th.width + l.section.width >= fw * l.vw
+         && l.height <= l.vh && l.mainScroll <= l.mainClient;
 }"""
 
 TICKS_ARE = ("(px) => parseFloat(Bokeh.documents[0].get_model_by_name('time_history')"
@@ -77,6 +92,62 @@ def test_presentation_mode_fits_1280x720_and_exit_restores_the_page(page, dashbo
         assert (on[name]["width"] * on[name]["height"] > off[name]["width"] * off[name]["height"]), name
     assert on["tickFont"] >= 1.4 * off["tickFont"]
     assert on["badgeFont"] >= 1.4 * off["badgeFont"]
+
+
+def filled(page) -> dict:
+    """The page's look once both plots fill the window (the browser lays them out after a
+    resize without the server), asserted: what fails is named with its numbers."""
+    try:
+        page.wait_for_function(FILLS, arg=[FILL_HEIGHT, FILL_WIDTH], timeout=30_000)
+    except PlaywrightTimeout:
+        pass  # the assertions below say which size falls short
+    painted(page)
+    look = page.evaluate(LOOK)
+    below = look["vh"] - look["header"]
+    assert look["height"] <= look["vh"] and look["width"] <= look["vw"], look
+    assert look["mainScroll"] <= look["mainClient"], look
+    for name in ("th", "section"):
+        b = look[name]
+        assert b["height"] >= FILL_HEIGHT * below, (name, b["height"], below)
+        assert look["header"] <= b["top"] and b["bottom"] <= look["vh"] + 1, (name, b)
+        assert 0 <= b["left"] and b["right"] <= look["vw"], (name, b)
+    assert look["th"]["width"] + look["section"]["width"] >= FILL_WIDTH * look["vw"], look
+    assert look["th"]["right"] <= look["section"]["left"] + 1  # side by side
+    return look
+
+
+def test_presentation_mode_fills_a_1920x1080_screen(page, dashboard_server):
+    """present=true at 1920×1080: nothing scrolls, each plot is at least 70 % of the height below
+    the header and the two together at least 85 % of the width, fonts as on a 1280×720 one."""
+    page.set_viewport_size(FULL_HD)
+    open_dashboard(page, dashboard_server, "?present=true")
+    page.wait_for_function(TICKS_ARE, arg=17, timeout=30_000)
+    page.wait_for_function("() => document.getElementById('sidebar').getBoundingClientRect().width === 0",
+                           timeout=30_000)
+    look = filled(page)
+    assert look["sidebar"] == 0 and look["badgeFont"] >= 21
+
+
+def test_resizing_the_window_while_presenting_refits_the_plots(page, dashboard_server):
+    """Presenting at 1280×720, then 1920×1080, then 1600×900: the plots grow with the window
+    and fill each large one, and nothing scrolls at any size."""
+    page.set_viewport_size(PROJECTOR)
+    open_dashboard(page, dashboard_server, "?present=true")
+    page.wait_for_function(TICKS_ARE, arg=17, timeout=30_000)
+    painted(page)
+    small = page.evaluate(LOOK)
+    assert small["height"] <= PROJECTOR["height"] and small["mainScroll"] <= small["mainClient"], small
+
+    page.set_viewport_size(FULL_HD)
+    large = filled(page)
+    for name in ("th", "section"):
+        assert large[name]["height"] > 1.3 * small[name]["height"], name
+        assert large[name]["width"] > 1.3 * small[name]["width"], name
+
+    page.set_viewport_size({"width": 1600, "height": 900})
+    middle = filled(page)
+    for name in ("th", "section"):
+        assert small[name]["height"] < middle[name]["height"] < large[name]["height"], name
 
 
 def test_the_present_button_turns_the_mode_on(page, dashboard_server):

@@ -1,11 +1,13 @@
-"""How presentation mode looks: stylesheets, a figure's fonts and heights, the marking class.
+"""How presentation mode looks: stylesheets, a figure's fonts, the marking class.
 
 Presentation mode (``state.present``) is for a lecture on a projector: the page keeps its
 views and their Bokeh models, and only their look changes. Everything that differs is here:
 
 * :data:`PAGE_CSS`, the template's stylesheet: while an element of class ``rattle-presenting``
-  is on the page (the header's toggle carries it), the sidebar is hidden and the main area
-  does not scroll.
+  is on the page (the header's toggle carries it), the sidebar is hidden, the main area does
+  not scroll and its tabs take all of its height (the window's, less the header's): the
+  Explorer's grid (:data:`app.dashboard.EXPLORER_CSS`) shares it out, and the figures, which
+  stretch while presenting, fill their cells and follow the window when it is resized.
 * :data:`PANE_CSS`, given to the HTML panes and layouts that change: rules that apply only
   while the pane carries the ``presenting`` class (:func:`mark`): the badge, the metrics and
   the legend at least 1.4 times their normal fonts (the sentence under the badge 1.3 times,
@@ -26,7 +28,9 @@ PAGE_MARK = "rattle-presenting"
 PAGE_CSS = f"""
 body:has(.{PAGE_MARK}) #sidebar {{ display: none !important; }}
 body:has(.{PAGE_MARK}) #sidebar-toggle {{ display: none !important; }}
-body:has(.{PAGE_MARK}) #main {{ overflow: hidden !important; padding-top: 4px; }}
+body:has(.{PAGE_MARK}) #main {{ overflow: hidden !important; padding-top: 4px;
+                                display: flex !important; flex-direction: column; }}
+body:has(.{PAGE_MARK}) #main > * > .main-tabs {{ flex: 1 1 0 !important; min-height: 0 !important; }}
 body:has(.{PAGE_MARK}) #header {{ padding-top: 0 !important; padding-bottom: 0 !important; }}
 """
 

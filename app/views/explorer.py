@@ -38,8 +38,9 @@ SECTION_OPTIONS = {"Poincaré (x, ẋ)": "absolute", "relative (x−y, ẋ−ẏ
 SECTION_PIXELS = (480, 320)
 #: Words of the diagrams explained on hover beside the legend (keys of :data:`app.ui.help.HELP`).
 WORDS = ("multipliers", "pd", "grazing", "sticking")
-#: The section figure's height, normal and while presenting.
-SECTION_HEIGHT = {False: 380, True: 430}
+#: The section figure's height, and its least; while presenting it fills its cell of the
+#: Explorer's grid.
+SECTION_HEIGHT = 380
 #: Above this many points the section is rasterised instead of drawn as glyphs.
 DENSE = 5000
 #: Legend entries of the live run's and the pinned run's points.
@@ -73,7 +74,7 @@ class SectionView(pn.viewable.Viewer):
                                                           self.range])
         self.range.add_subscriber(self.zoom._ranged, precedence=-1)
         plot = (self.dense * self.sparse).opts(
-            hv.opts.Overlay(responsive=True, height=380, hooks=[weak_hook(self._name_plot)]),
+            hv.opts.Overlay(responsive=True, height=SECTION_HEIGHT, hooks=[weak_hook(self._name_plot)]),
             hv.opts.Points(tools=[*TOOLS, "tap"], active_tools=["wheel_zoom"]))
         # HoloViews links a stream to the figure through the overlay's first layer (a source
         # on the glyph layer, whose output is an overlay, is never linked: clicks were lost)
@@ -82,15 +83,25 @@ class SectionView(pn.viewable.Viewer):
         self.tap.add_subscriber(self._on_tap)
         self.mode = Choice(self.state, "section", SECTION_OPTIONS, sizing_mode="stretch_width")
         self.msg = message(self.state, "start")
-        self.pane = HoloViewsPane(plot, sizing_mode="stretch_width", min_height=380,
-                                      css_classes=["section"])
+        self.pane = HoloViewsPane(plot, sizing_mode="stretch_width", min_height=SECTION_HEIGHT,
+                                  css_classes=["section"])
         self.state.param.watch(self._update, ["result", "section", "pinned_result"])
-        self.state.param.watch(lambda e: self._redraw(), "present")
+        # drawn once the page has loaded, so the first plot (the time history) comes sooner
+        self.layout = pn.Column(self.mode, self.msg, deferred(self.pane), sizing_mode="stretch_width")
+        self.state.param.watch(self._present, "present")
         self._update()
+        self._present()
 
     def __panel__(self):
-        # drawn once the page has loaded, so the first plot (the time history) comes sooner
-        return pn.Column(self.mode, self.msg, deferred(self.pane), sizing_mode="stretch_width")
+        return self.layout
+
+    def _present(self, *_: Any) -> None:
+        """While presenting, the section and what holds it are as high as their cell in the
+        Explorer's grid; the figure follows from the hook (:meth:`_name_plot`)."""
+        mode = "stretch_both" if self.state.present else "stretch_width"
+        for part in (self.layout, self.layout[2], self.pane):
+            part.sizing_mode = mode
+        self._redraw()
 
     @property
     def points(self) -> tuple[np.ndarray, np.ndarray]:
@@ -176,8 +187,9 @@ class SectionView(pn.viewable.Viewer):
             plot.state.title.text = self._title
         present = self.state.present
         figure_fonts(plot.state, present, title="9pt")
-        if plot.state.height != SECTION_HEIGHT[present]:
-            plot.state.height = SECTION_HEIGHT[present]
+        mode = "stretch_both" if present else "stretch_width"
+        if plot.state.sizing_mode != mode:
+            plot.state.sizing_mode = mode
         save_as(lambda: self._stem)(plot, element)
 
     @staticmethod

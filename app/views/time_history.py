@@ -41,8 +41,8 @@ from ..ui.labels import (ACTIVE_COLOR, GEAR_COLOR, MARK_COLOR, PIN_COLOR, REVERS
 from ..ui.present import figure_fonts
 from ..ui.plots import caption, file_stem, full_screen, name_saved_png, time_history_data
 
-#: The figure's height, normal and while presenting.
-HEIGHT = {False: 330, True: 470}
+#: The figure's height; while presenting it fills its cell of the Explorer's grid.
+HEIGHT = 330
 MOTION = ("t", "x", "y", "yj", "tooth_lo", "tooth_hi")
 IMPACTS = ("t", "x", "impulse")
 #: The gear's legend entry, alone and beside a pinned run; and the pinned run's.
@@ -57,7 +57,7 @@ def time_history_figure() -> tuple[Any, dict[str, ColumnDataSource]]:
            "reverse": ColumnDataSource({k: [] for k in IMPACTS}, name="th_reverse"),
            "stick": ColumnDataSource({"xs": [], "ys": []}, name="th_stick"),
            "pinned": ColumnDataSource({"t": [], "x": []}, name="th_pinned")}
-    p = figure(height=HEIGHT[False], sizing_mode="stretch_width", tools="pan,wheel_zoom,box_zoom,reset",
+    p = figure(height=HEIGHT, sizing_mode="stretch_width", tools="pan,wheel_zoom,box_zoom,reset",
                active_scroll="wheel_zoom", x_range=DataRange1d(), y_range=DataRange1d(),
                output_backend="canvas", name="time_history")
     p.add_tools(SaveTool(filename="rattle_time.png"))
@@ -113,7 +113,7 @@ class TimeHistoryView(pn.viewable.Viewer):
         return self.pane
 
     def _present(self, *_: Any) -> None:
-        """Presentation mode: a taller figure, larger fonts."""
+        """Presentation mode: a figure as large as its cell, larger fonts."""
         on = self.state.present
         figure_fonts(self.fig, on)
         # beside a figure half the page wide, the legend goes below it, in two columns
@@ -123,8 +123,12 @@ class TimeHistoryView(pn.viewable.Viewer):
             setattr(self.fig, other, [m for m in getattr(self.fig, other) if m is not legend])
             setattr(self.fig, side, [*getattr(self.fig, side), legend])
             legend.ncols = 2 if on else 1
-        if self.fig.height != HEIGHT[on]:
-            self.fig.height = HEIGHT[on]
+        # while presenting, as high as its cell in the Explorer's grid (the window's height);
+        # set on the figure, not the pane: the pane would copy the figure's stylesheets back
+        # into its own parameters, which take only strings
+        mode = "stretch_both" if on else "stretch_width"
+        if self.fig.sizing_mode != mode:
+            self.fig.sizing_mode = mode
 
     def draw(self, *_: Any) -> None:
         run = self.state.result
