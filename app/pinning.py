@@ -5,8 +5,9 @@ The pin (``state.pinned``, URL key ``pin``) is the text of the settings that dec
 holds the physical inputs (:data:`PIN_PHYSICAL_KEYS`) that give A its physical scale (time
 in ms, engine speed), so a link reopens A as the page pinned it. :func:`parse_pin` reads it
 back, checking each item as the state checks that parameter, and names the item at fault and
-its allowed range; physical inputs must describe the pin's own Λ and j. A link whose pin does not parse loses it before the page reads the link
-(:func:`drop_bad_pin`), with a message beside the pin, as other unusable URL values do.
+its allowed range; physical inputs must describe the pin's own Λ and j. A link whose pin does
+not parse loses it before the page reads the link (:func:`drop_bad_pin`), with a message
+beside the pin, as other unusable URL values do.
 
 :class:`Pinner` (one per session) computes A once, when the pin changes, through the same
 budgeted path as the live run (a :class:`~app.work.page_run.PageRun` of its own job kind, so
@@ -15,8 +16,9 @@ on the page reuses ``state.result`` itself. A pin with physical inputs has a phy
 (``Run.phys``, computed by :func:`app.physical.run_physical` as for the live run); a pin
 without them (made on a dimensionless page, or an older link) has none, whatever the page's
 mode: its physical scale is unknown, so in physical units its time history and its place on
-the engine-speed diagram are not drawn (its section and Λ or φ₂ markers are). A pin that does not parse or cannot run is
-refused: a message beside it, and the last pin and its run come back.
+the engine-speed diagram are not drawn (its section and Λ or φ₂ markers are). A pin that does
+not parse or cannot run is refused: a message beside it, and the last pin and its run come
+back.
 """
 from __future__ import annotations
 
