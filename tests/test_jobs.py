@@ -102,3 +102,18 @@ def test_a_new_request_replaces_the_sessions_last_and_session_end_cancels_all(po
     assert [j for j in pool.pending("d")] == []
     for b in blockers:
         b.cancel()
+
+
+def test_a_slow_worker_start_does_not_count_against_a_job_limit():
+    """Workers that take 3 s to warm up (a loaded machine) still run a 0.2 s job within a 1 s
+    limit: a worker takes jobs only once warm, so its start is not part of the job's time."""
+    import functools
+    slow = JobPool(size=1, grace=1.0, warm=functools.partial(time.sleep, 3.0))
+    try:
+        out = Outcome()
+        job = slow.submit(("w", "x"), time.sleep, (0.2,), time_limit=1.0, **out.kwargs())
+        assert job.status == "queued"  # no worker is warm yet
+        assert out.done.wait(60)
+        assert out.error is None and job.status == "done", out.error
+    finally:
+        slow.shutdown()

@@ -11,7 +11,10 @@ numba's disk cache):
 * **cancel** sets the job's flag, which the work polls between chunks (:func:`cancelled`);
   a job still running ``grace`` seconds later is killed with its process;
 * **time limit**: a job running longer than its limit is killed the same way and reports an
-  error; the process is replaced at once, so the pool never shrinks;
+  error; the process is replaced at once, so the pool never shrinks. A new process takes jobs
+  only once it has warmed up (imports, compiled kernels), so its start, slow on a loaded
+  machine, never counts against a job's limit; one that cannot warm up within
+  :data:`WARM_LIMIT` is replaced;
 * **session end**: :meth:`JobPool.cancel_session` cancels all of a session's jobs.
 
 Callbacks (``on_progress(fraction)``, ``on_done(result)``, ``on_error(message)``) run on the
@@ -35,6 +38,8 @@ from typing import Any, Callable
 log = logging.getLogger(__name__)
 
 _CTX = mp.get_context("spawn")
+#: Seconds a new worker process may take to warm up before it is replaced.
+WARM_LIMIT = 300.0
 #: The job running in this process, when it is a worker: its connection, id and cancel flag.
 _CURRENT: dict[str, Any] = {}
 
@@ -67,6 +72,10 @@ def _worker_main(conn, flag, warm: Callable[[], Any] | None) -> None:
             warm()
         except Exception:  # a failed warm-up only costs the first job its compile time
             pass
+    try:
+        conn.send(("ready", 0, None))
+    except (OSError, ValueError):
+        return
     _CURRENT.update(conn=conn, flag=flag)
     while True:
         try:
@@ -133,6 +142,8 @@ class _Worker:
         child.close()
         self.job: Job | None = None
         self.dead = False
+        #: Whether the process has warmed up and takes jobs.
+        self.ready = False
         self.started = time.monotonic()
         self.reader = threading.Thread(target=pool._read, args=(self,), daemon=True,
                                        name="rattle-worker-reader")
@@ -235,7 +246,7 @@ class JobPool:
             for w in self._workers:
                 if not self._queue:
                     return
-                if w.job is not None or w.dead:
+                if w.job is not None or w.dead or not w.ready:
                     continue
                 job = self._queue.popleft()
                 w.flag.clear()
@@ -267,6 +278,11 @@ class JobPool:
                 kind, job_id, payload = w.conn.recv()
             except (EOFError, OSError, TypeError, ValueError):
                 break
+            if kind == "ready":
+                with self._lock:
+                    w.ready = True
+                self._dispatch()
+                continue
             with self._lock:
                 job = w.job if w.job is not None and w.job.id == job_id else None
                 if job is not None and kind != "progress":
@@ -335,6 +351,10 @@ class JobPool:
             now = time.monotonic()
             with self._lock:
                 busy = [(w, w.job) for w in self._workers if w.job is not None and not w.dead]
+                cold = [w for w in self._workers
+                        if not w.ready and not w.dead and now - w.started > WARM_LIMIT]
+            for w in cold:
+                self._replace(w, f"the worker process did not warm up within {WARM_LIMIT:g} s")
             for w, job in busy:
                 if job.cancelled_at is not None and now - job.cancelled_at > self.grace:
                     self._replace(w, "cancelled")
