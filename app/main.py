@@ -159,6 +159,27 @@ def _no_sigint() -> Iterator[None]:
 
 
 @contextlib.contextmanager
+def _sigint_deferred() -> Iterator[None]:
+    """A Ctrl-C during the block is noted, and raised as KeyboardInterrupt once it ends.
+
+    Loading compiled kernels runs Python callbacks inside numba's compiled code, which print
+    and drop an exception raised in them ("Exception ignored in …"): a Ctrl-C landing there
+    was lost, and the server went on to serve.  Here the handler only takes note.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    noted: list[int] = []
+    old = signal.signal(signal.SIGINT, lambda signum, frame: noted.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+    if noted:
+        raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
 def _sigint_ignored() -> Iterator[None]:
     """SIGINT ignored while Dask starts its worker processes, which keep ignoring it.
 
@@ -208,9 +229,10 @@ def serve(port: int = 5006, address: str = "localhost", show: bool = False,
         logging.basicConfig(level=logging.INFO,
                             format="%(asctime)s %(name)s %(levelname)s %(message)s")
         log.info("warming up (compiled kernels, shipped diagrams, worker processes)…")
-        with _no_sigint():
-            jobs.pool(warm=tasks.warm_up)
-        warm_up()
+        with _sigint_deferred():
+            with _no_sigint():
+                jobs.pool(warm=tasks.warm_up)
+            warm_up()
         origins = kwargs.pop("websocket_origin", None) or [f"{address}:{port}", f"localhost:{port}",
                                                            f"127.0.0.1:{port}"]
         kwargs.setdefault("check_unused_sessions", UNUSED_SESSION_S * 1000)

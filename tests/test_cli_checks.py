@@ -200,3 +200,17 @@ def test_the_atlas_codim2_table_is_checked_first(tmp_path, capsys, monkeypatch):
     argv = ["atlas", "--lam", "1.2", "--from", "c:lam:pd", "--param2", "j", "--bounds", "1,8",
             "--out", str(tmp_path / "pd.csv")]
     one_line_error(argv, capsys, "pd_codim2.csv")
+
+
+def test_a_ctrl_c_while_the_server_warms_up_is_raised_once_it_is_warm():
+    """A Ctrl-C during warm-up is not raised inside it (numba's compiled code would print and
+    drop it, and the server would go on serving), but as soon as warm-up ends."""
+    from app import main
+    steps = []
+    with pytest.raises(KeyboardInterrupt):
+        with main._sigint_deferred():
+            os.kill(os.getpid(), signal.SIGINT)
+            steps.append("after the signal")  # a callback inside compiled code stands here
+            steps.append("warm")
+    assert steps == ["after the signal", "warm"]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
