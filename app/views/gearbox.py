@@ -85,7 +85,8 @@ class GearboxView(pn.viewable.Viewer):
         self.cancel_button, self.progress, self.status = (
             self.run_panel.cancel_button, self.run_panel.progress, self.run_panel.status)
         self.listen_button = pn.widgets.Button(label="Listen", css_classes=["gb-listen"])
-        self.audio = pn.pane.Audio(None, sample_rate=48_000, name="gearbox sound", css_classes=["gb-audio"])
+        self.audio = pn.pane.Audio(None, sample_rate=48_000, name="gearbox sound", volume=100,
+                                   css_classes=["gb-audio"])  # volume set: see app.views.sound
         self.listen_status = pn.pane.HTML("", css_classes=["gb-listen-status"])
         self.csv_download = pn.widgets.FileDownload(callback=self.csv, filename="gearbox_verdict.csv",
                                                     label="Verdict as CSV", disabled=True,

@@ -97,9 +97,11 @@ class SoundView(pn.viewable.Viewer):
 
     def _build(self) -> None:
         s = self.settings
+        # a volume of its own: left unset, every page's player would send it at once, a
+        # message that can reach a session while it closes
         self.audio = pn.pane.Audio(None, sample_rate=s["sample_rate"], name="rattle sound",
-                                   css_classes=["sound-audio"], sizing_mode="stretch_width",
-                                   margin=(5, 10))
+                                   volume=100, css_classes=["sound-audio"],
+                                   sizing_mode="stretch_width", margin=(5, 10))
         self.render_button = pn.widgets.Button(label="Render / play", color="primary",
                                                css_classes=["sound-render"], width=130)
         self.auto = pn.widgets.Checkbox(label="auto (render at every redraw)", value=False,
