@@ -18,6 +18,7 @@ import importlib.util
 import logging
 import os
 import shutil
+import signal
 import socket
 import tempfile
 import time
@@ -40,8 +41,15 @@ def _ui_unavailable() -> str | None:
 
 
 def pytest_configure(config):
-    """A fresh, empty disk cache for the run: no test is served by a result from earlier runs."""
+    """A fresh, empty disk cache for the run: no test is served by a result from earlier runs.
+
+    Ctrl-C is delivered as usual: a run started as a background job (``cmd &`` in a script)
+    inherits SIGINT ignored, and so would every command it starts, while the Ctrl-C tests
+    check what those commands do with it.
+    """
     os.environ["RATTLE_CACHE_DIR"] = tempfile.mkdtemp(prefix="rattle-test-cache-")
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def pytest_unconfigure(config):
