@@ -122,13 +122,14 @@ def _check_physical(ps: ExplorerState) -> None:
     """Refuse physical inputs that describe no model, or not the pin's own Λ and j (the live
     run's test, :func:`app.physical.run_physical`); inputs left out take their defaults."""
     params = rattle_params(ps)
-    try:
+    if run_physical(ps, params) is not None:
+        return
+    try:  # why not: no model at all, or another Λ and j
         q = physical_of(ps, params).to_dimensionless()
     except ValueError as exc:
         raise ValueError(f"pin: its physical inputs describe no model: {exc}") from None
-    if run_physical(ps, params) is None:
-        raise ValueError(f"pin: its physical inputs give Λ = {q.lam:.6g}, j = {q.j:.6g}, not "
-                         f"its Λ = {params.lam:.6g}, j = {params.j:.6g}")
+    raise ValueError(f"pin: its physical inputs give Λ = {q.lam:.6g}, j = {q.j:.6g}, not "
+                     f"its Λ = {params.lam:.6g}, j = {params.j:.6g}")
 
 
 def pinned_state(text: str) -> ExplorerState:

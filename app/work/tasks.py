@@ -75,19 +75,16 @@ def regime_map(params: RattleParams, phys: Any, x_name: str, x_values: np.ndarra
     ``cached_only``, the map is read from the disk cache or not made at all (None).
     """
     from ..core import NotCached, read_only, run_map
-    if cached_only:
-        try:
-            with read_only():
-                return run_map(params, phys, x_name, x_values, y_name, y_values, use_cache=True,
-                               transient=transient, record=record)
-        except NotCached:
-            return None
-    executor = _client(scheduler) if scheduler else None
+    executor = _client(scheduler) if scheduler and not cached_only else None
     kwargs = {"executor": executor} if executor is not None else {}
-    with executor.as_current() if executor is not None else contextlib.nullcontext():
-        return run_map(params, phys, x_name, x_values, y_name, y_values, use_cache=True,
-                       progress=report, cancel=cancelled, transient=transient, record=record,
-                       **kwargs)
+    try:
+        with (read_only() if cached_only else contextlib.nullcontext()), \
+                (executor.as_current() if executor is not None else contextlib.nullcontext()):
+            return run_map(params, phys, x_name, x_values, y_name, y_values, use_cache=True,
+                           progress=report, cancel=cancelled, transient=transient, record=record,
+                           **kwargs)
+    except NotCached:
+        return None
 
 
 def noise_check(params: RattleParams, runs: int, periods: int, transient: int) -> dict:
