@@ -125,13 +125,7 @@ def _codim2_tests(ext: _Extended, X, orb: PeriodicOrbit, tau) -> dict:
 
 
 def _test_at(ext: _Extended, key: str, X, tau) -> float:
-    try:
-        return _test_value(ext, key, X, tau)
-    except (ZeroDivisionError, FloatingPointError):
-        return math.nan
-
-
-def _test_value(ext: _Extended, key: str, X, tau) -> float:
+    """Test ``key`` at ``X``: finite, or NaN where it does not exist (an impact grazes)."""
     if key == "turn":
         return float(ext.tangent(X, tau)[-1])
     if key in ("pd", "fold"):
@@ -323,6 +317,8 @@ def _criticality(ext: _Extended, Xe) -> float:
     q2 = float(Xe[-1])
     _, X2 = _doubled(ext, Xe, None)
     e = _pd_direction(ext, Xe)[:-1]       # unknowns (z2, q1), q2 held
+    if not np.all(np.isfinite(e)):
+        return math.nan  # an impact grazes: the local maps, and the flip direction, do not exist
     fl2 = np.concatenate([ext.fl, ext.fl])
     Y0 = X2[:-1]
     dq = []
