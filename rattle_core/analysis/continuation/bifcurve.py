@@ -13,6 +13,7 @@ from ...model.params import RattleParams, check_range
 from ...solver.trajectory import SOLVER_VERSION
 from .codim2 import Codim2Point, _pd_direction, _reduced
 from .contact import _ContactSystem, _contact_side, _global_start, _polish_t
+from .curvepoint import _admissible, _orbit
 from .stickend import _stick_end_side
 from .defining import _Extended, _Grazing, _Multiplier, _StickOnset
 from .driver import CONTINUATION_VERSION
@@ -324,7 +325,6 @@ def _degenerate_start(ext, X0, bounds_q):
     pushing wall (onset of sticking), on an orbit of the model.  The one nearest ``X0`` in the
     parameters wins.  None when there is none.
     """
-    from .twoparam import _admissible, _orbit
     (a1, b1), (a2, b2) = bounds_q
     q0 = X0[-2:]
     radius = _START_RADIUS * (1.0 + np.abs(q0))

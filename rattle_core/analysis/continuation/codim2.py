@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from ...model.excitation import TWO_PI, excitation
+from .curvepoint import _admissible, _orbit, _where
 from .defining import _Extended, _Grazing, _Multiplier, _StickOnset, _monodromy
 from .orbits import PeriodicOrbit
 from .sticking import _w_min
@@ -136,7 +137,6 @@ def _test_at(ext: _Extended, key: str, X, tau) -> float:
         return ext.cond.reaction(ext, X[:-2], X[-2], X[-1])
     if key == "gpd":
         return _criticality(ext, X)
-    from .twoparam import _admissible, _orbit
     orb = _orbit(ext, X)
     if key == "adm":
         return 1.0 if _admissible(ext, orb) else -1.0
@@ -199,7 +199,6 @@ _LABELS = {
 
 def _record(run, ext: _Extended, key: str, Xe, tau, side: int, idx: int):
     """Record the codimension-two point of test ``key`` at ``Xe`` (None if it is not one)."""
-    from .twoparam import _orbit, _where
     kind = ext.cond.kind
     if key == "turn":
         label, other, terminal = "turn", "", False
@@ -257,7 +256,6 @@ def _inserted(ext: _Extended, X, cond: _Grazing, v_stick: float):
 
 def _restart_data(ext: _Extended, key: str, Xe, v_stick: float):
     """``(extended system, first point, how)`` of the other curve at a codimension-two point."""
-    from .twoparam import _orbit
     kind = ext.cond.kind
     plane = ext.plane
     if key == "turn":
