@@ -16,7 +16,7 @@ import math
 import numbers
 import re
 from collections.abc import Iterator, Mapping, Set
-from typing import Any, Callable, Iterable
+from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -247,7 +247,7 @@ class RattleParams:
 
     @classmethod
     def paper(cls, lam: float, r: float = 0.65, j: float = 8.0,
-              amplitudes: Iterable[float] = (1.0,), phases_deg: Iterable[float] = (0.0,),
+              amplitudes: Sequence[float] = (1.0,), phases_deg: Sequence[float] = (0.0,),
               v_stick: float = 1e-6, noise: float = NOISE_DEFAULT, *, h2: float | None = None,
               phi2: float = 0.0) -> "RattleParams":
         """Parameters given in the paper's phase convention (:mod:`rattle_core.model.phases`).
@@ -256,6 +256,8 @@ class RattleParams:
         paper's Figures 4–8: ``RattleParams.paper(lam=3.3, h2=0.25, phi2=45)``); they replace
         ``amplitudes`` and ``phases_deg``, which must then be left at their defaults.
         """
+        amplitudes = _as_tuple("amplitudes", amplitudes)
+        phases_deg = _as_tuple("phases_deg", phases_deg)
         if h2 is not None:
             if tuple(amplitudes) != (1.0,) or tuple(phases_deg) != (0.0,):
                 raise ValueError("h2/phi2 give the harmonics: leave amplitudes and phases_deg out")
