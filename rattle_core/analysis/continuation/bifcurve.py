@@ -9,7 +9,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from ...model.params import RattleParams, check_range
+from ...model.params import RattleParams, check_cancel, check_progress, check_range
 from ...solver.trajectory import SOLVER_VERSION
 from .codim2 import Codim2Point, _pd_direction, _reduced
 from .contact import _ContactSystem, _contact_side, _global_start, _polish_t
@@ -21,7 +21,7 @@ from .orbits import ContinuationError
 from .parameter import _KIND_J, _KIND_LAM, _KIND_R, _Param  # noqa: F401
 from .plane import _Plane
 from .results import Bifurcation
-from .twoparam import MAX_CURVE_POINTS, BifurcationCurve, _check_cancel, _finish, _trace
+from .twoparam import MAX_CURVE_POINTS, BifurcationCurve, _finish, _trace
 
 #: Bifurcation kinds that :func:`continue_bifurcation` follows in a second parameter.
 CURVE_STARTS = ("fold", "period_doubling", "grazing", "stick_onset", "stick_end",
@@ -87,9 +87,11 @@ def continue_bifurcation(bifurcation, param2: str | None = None, *,
         When the extended system cannot be solved at the start.
     """
     t_start = time.perf_counter()
-    _check_cancel(cancel)
-    if direction not in (0, 1, -1):
-        raise ValueError(f"direction = {direction!r}; allowed: 0 (both), 1 or -1")
+    progress = check_progress(progress)
+    cancel = check_cancel(cancel)
+    if (isinstance(direction, (bool, np.bool_)) or not isinstance(direction, (int, np.integer))
+            or direction not in (0, 1, -1)):
+        raise ValueError(f"direction = {direction!r}; allowed: the int 0 (both), 1 or -1")
     ds = check_range("ds", ds, 0.0, 1.0, lo_open=True)
     ds_max = check_range("ds_max", ds_max, ds, 10.0)
     ds_min = check_range("ds_min", ds_min, 0.0, ds, lo_open=True)
