@@ -351,7 +351,7 @@ def rejection(state: param.Parameterized, name: str, value: Any, reason: str = "
             what = f"{label} = {value!r} must be {whole}"
         else:
             shown = int(value) if isinstance(p, param.Integer) else float(value)
-            what = f"{label} = {shown!r} is outside the allowed range"
+            what = f"{label} = {_show(shown)} is outside the allowed range"
         return f"{what}; allowed {range_text(state, name)}. Kept {kept_text}."
     if not reason:
         try:
@@ -380,7 +380,7 @@ def _show_number(value: int | float) -> str:
     Python's limit on the digits it converts)."""
     if isinstance(value, Huge):
         return repr(value)
-    digits = math.floor((abs(value).bit_length() - 1) * math.log10(2)) + 1
+    digits = math.floor(math.log10(abs(value))) + 1  # log10 takes ints of any size
     return f"a{' negative' if value < 0 else ''} whole number of about {digits} digits"
 
 

@@ -27,7 +27,7 @@ from app.main import configure
 from app.session import Session
 from app.pinning import PIN_KEYS, PIN_PHYSICAL_KEYS, parse_pin
 from app.state import (GEARBOX_URL_KEYS, MAP_URL_KEYS, URL_KEYS, ExplorerState, GearboxSettings,
-                       MapSettings, range_text)
+                       MapSettings, range_text, rejection)
 
 configure()
 #: Every URL key: the state's, the Maps tab's settings' and the Gearbox tab's settings'.
@@ -91,6 +91,20 @@ def test_a_number_of_any_size_in_any_key_draws_the_page_and_names_the_range(key,
         assert "finite" not in text and "inf" not in text, (key, value[:20], text)
     neutral = NEUTRAL._owner(key)[0]
     assert getattr(owner, name) == getattr(neutral, name)
+
+
+@pytest.mark.parametrize("value, shown", [(10 ** 400, "a whole number of about 401 digits"),
+                                           (-(10 ** 5000), "a negative whole number of about "
+                                                           "5001 digits")],
+                         ids=["401 digits", "-5001 digits"])
+def test_an_int_too_large_for_a_float_is_refused_with_its_size_and_range(value, shown):
+    """An int no float holds (which Python will not even print past 4300 digits) is refused
+    with its size and the allowed range, whoever sets it."""
+    s = ExplorerState()
+    with pytest.raises(ValueError):
+        s.lam = value
+    assert rejection(s, "lam", value) == (f"Λ = {shown} is outside the allowed range; "
+                                          f"allowed (1e-06, 10000]. Kept 3.3.")
 
 
 NUMERIC_PIN_KEYS = [k for k in (*PIN_KEYS, *PIN_PHYSICAL_KEYS)
