@@ -58,7 +58,7 @@ def key_path() -> Path:
     return config_dir() / KEY_FILE
 
 
-def _parse(text: str, where: str) -> bytes:
+def _parse(text: str, where: str, remedy: str = "") -> bytes:
     try:
         key = bytes.fromhex(text.strip())
     except ValueError:
@@ -67,7 +67,7 @@ def _parse(text: str, where: str) -> bytes:
         # the text itself is not shown: it may be most of a secret
         raise CacheKeyError(f"{where} must hold at least {2 * KEY_BYTES} hex digits "
                             f"({KEY_BYTES} bytes); it holds {len(text.strip())} characters that "
-                            f"are not such a key")
+                            f"are not such a key{remedy}")
     return key
 
 
@@ -108,7 +108,7 @@ def _read(path: Path) -> bytes:
         text = data.decode("ascii")
     except UnicodeDecodeError:
         text = "?" * len(data)
-    return _parse(text, f"cache key {str(path)!r} (delete it to make a new key)")
+    return _parse(text, f"cache key {str(path)!r}", "; delete it to make a new key")
 
 
 def _create(path: Path) -> None:
