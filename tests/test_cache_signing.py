@@ -318,3 +318,12 @@ def test_no_key_can_be_made_the_result_is_computed_and_nothing_stored(tmp_path, 
     res, hit = _sweep(d, 0)
     assert not hit and len(res.values) == 4
     assert not d.exists() or not list(d.iterdir())
+
+
+def test_every_kind_of_entry_is_listed_and_cleared(tmp_path):
+    """Sweeps, maps, verdicts, branches and curves are all entries: listed, evicted, cleared."""
+    d = tmp_path / "cache"
+    for kind in KINDS.values():
+        kind.run(d, 0)
+    assert sorted(e.kind for e in cache.entries(d)) == sorted(k.prefix for k in KINDS.values())
+    assert cache.clear(d)[0] == len(KINDS) and not list(d.glob("*.npz"))

@@ -66,7 +66,7 @@ from .signing import secret
 DEFAULT_SIZE_MB = 1024
 SIZE_MB_RANGE = (0.0, 1.0e7)
 #: File-name prefixes of cache entries; nothing else in the directory is ever deleted.
-PREFIXES = ("sweep", "map", "cont", "gearbox")
+PREFIXES = ("sweep", "map", "cont", "gearbox", "atlas")
 _SWEEP_SETTINGS = ("transient", "record", "mode", "x0", "v0")
 _MAP_SETTINGS = ("transient", "record", "x0", "v0", "decimals")
 #: What every sweep and map entry must hold (basins also ``f_attractor``).
@@ -261,8 +261,8 @@ def cached_map(kind: str, params: RattleParams, x_name: str, x_values, y_name: s
 
 @dataclasses.dataclass(frozen=True)
 class Entry:
-    """One cache file: its path, kind (``sweep``, ``map``, ``cont``, a continued branch, or
-    ``gearbox``, a verdict), size in bytes and last use."""
+    """One cache file: its path, kind (``sweep``, ``map``, ``cont``, a continued branch,
+    ``gearbox``, a verdict, or ``atlas``, bifurcation curves), size in bytes and last use."""
 
     path: Path
     kind: str
