@@ -265,7 +265,8 @@ def test_cli_gearbox_writes_the_verdict_and_refuses_bad_files(tmp_path):
     exits 2 with one line."""
     (tmp_path / "gb.toml").write_text(TOML)
     out = tmp_path / "verdict.csv"
-    env = {"RATTLE_CACHE_DIR": str(tmp_path / "cache"), "PATH": "/usr/bin:/bin"}
+    env = {"RATTLE_CACHE_DIR": str(tmp_path / "cache"), "PATH": "/usr/bin:/bin",
+           "RATTLE_CONFIG_DIR": str(tmp_path / "config")}
     cmd = [sys.executable, "-m", "rattle_cli", "gearbox"]
     r = subprocess.run(cmd + [str(tmp_path / "gb.toml"), "--rpm", "1500:2500:3", "--out", str(out),
                               "--transient", "60", "--record", "30", "-q", "--png"],
