@@ -59,8 +59,8 @@ def _pflight(j, amp, phase, p, s0, qa, q1, m2, m3, m4, x0, v0, dmax, leave, move
         if d >= dmax:
             return dmax, 0, 0.0, 0.0, 0.0, 0.0, 0.0
     for _ in range(_FLIGHT_MAX_IT):
-        x = x0 + d * (v0 - d * (0.5 * qa + d * q1 / 6.0))
-        vv = v0 - d * (qa + 0.5 * q1 * d)
+        x = x0 + v0 * d - 0.5 * d * d * qa - d * d * d * q1 / 6.0
+        vv = v0 - d * qa - 0.5 * q1 * d * d
         y0, y1, y2, y3, y4 = _wall_derivs(amp, phase, p, s0 + d)
         ga = x - y0
         ga1 = vv - y1
@@ -262,8 +262,8 @@ def _replay(t0, length, amp, phase, decel, bnd, qmax, r, j, v_stick, p0, s0, x0,
             if hit == 2:
                 status = STALL
                 break
-            x = x + d * (v - d * (0.5 * qa + d * q1 / 6.0))
-            v = v - d * (qa + 0.5 * q1 * d)
+            x = x + v * d - 0.5 * d * d * qa - d * d * d * q1 / 6.0
+            v = v - d * qa - 0.5 * q1 * d * d
             if hit != 0:
                 pending = hit
                 s = s + d
@@ -345,8 +345,8 @@ class WallRun:
         d = t - self.seg_t[i]
         qa = w.decel[p, 0] + w.decel[p, 1] * s_start
         q1 = w.decel[p, 1]
-        x = self.seg_x[i] + d * (self.seg_v[i] - d * (0.5 * qa + d * q1 / 6.0))
-        v = self.seg_v[i] - d * (qa + 0.5 * q1 * d)
+        x = self.seg_x[i] + self.seg_v[i] * d - 0.5 * d * d * qa - d * d * d * q1 / 6.0
+        v = self.seg_v[i] - d * qa - 0.5 * q1 * d * d
         kind = self.seg_kind[i]
         stuck = kind != 0
         if np.any(stuck):

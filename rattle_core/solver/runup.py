@@ -225,7 +225,8 @@ def runup_wall(gearbox: Gearbox, gear: int | str, rpm_from: float, rpm_to: float
 
     omega_ref = eo * 2.0 * math.pi * rpm_from / 60.0
     scale = g.drive_radius_m * g.speed_ratio
-    H_ref = scale * float(th_s(rpm_from)[0, 0])
+    # grouped as units.PhysicalParams groups them, so that a steady run is that model's numbers
+    H_ref = g.drive_radius_m * (float(th_s(np.array([rpm_from]))[0, 0]) * g.speed_ratio)
     if not H_ref > 0.0:
         raise ValueError(f"gear {g.name!r}: the fundamental's amplitude at {rpm_from:g} rpm is "
                          f"{H_ref / scale:g} rad; the replay needs it > 0")
@@ -267,7 +268,7 @@ def runup_wall(gearbox: Gearbox, gear: int | str, rpm_from: float, rpm_to: float
     for m in range(4):
         at = rpm_mid if m == 3 else rpm_a
         bm = beta ** m / fact[m]
-        amp[:, :, m] = scale / H_ref * th_s(at, m) * bm
+        amp[:, :, m] = g.drive_radius_m * (th_s(at, m) * g.speed_ratio) / H_ref * bm
         phase[:, :, m] = -ph_s(at, m) * bm
     phase[:, :, 0] += n[None, :] * psi0[:, None]
     phase[:, :, 1] += n[None, :] * psi1[:, None]
@@ -285,7 +286,7 @@ def runup_wall(gearbox: Gearbox, gear: int | str, rpm_from: float, rpm_to: float
             raise ValueError(f"drag must give a finite torque > 0 N·m at every speed of the run; "
                              f"got {float(torque[~(np.isfinite(torque) & (torque > 0))][0])!r}")
     accel = scale * 2.0 * math.pi * c / 60.0                # R_d · ratio · dΩ/dt [m/s²]
-    qn = (torque / g.base_radius_m / mass + accel) / (H_ref * omega_ref ** 2)
+    qn = 1.0 / (mass * H_ref * omega_ref ** 2 / (torque / g.base_radius_m + mass * accel))
     decel = np.empty((starts.size, 2))
     decel[:, 0] = qn[:-1]
     decel[:, 1] = (qn[1:] - qn[:-1]) / length
