@@ -206,3 +206,56 @@ def test_refusals_name_the_range_and_the_budget(sample_box):
         replay(sample_box, "third", 1000.0, 2000.0, 1.0)
     with pytest.raises(ValueError, match=r"duration_s"):
         replay(sample_box, 0, 1000.0, 2000.0, 0.0)
+
+
+CLI_TOML = """
+[excitation]
+measurement = "sample"
+engine_order = 2
+harmonics = 3
+
+[[gear]]
+name = "5th idler"
+inertia_kgm2 = 4e-4
+base_radius_m = 0.035
+drag_torque_Nm = 0.05
+backlash_um = 80
+
+[[gear]]
+name = "reverse idler"
+inertia_kgm2 = 2.5e-4
+base_radius_m = 0.03
+drag_torque_Nm = 0.03
+backlash_um = 120
+speed_ratio = 0.8
+"""
+
+
+def test_cli_runup_writes_every_impact_and_the_sound(tmp_path, capsys):
+    """`rattle runup` writes one CSV row per impact of every gear, equal to replay()'s, and a
+    48 kHz WAV as long as the run; a speed outside the measurement exits 2 with the range."""
+    import pandas as pd
+    from scipy.io import wavfile
+
+    from rattle_cli.main import main
+    toml = tmp_path / "box.toml"
+    toml.write_text(CLI_TOML)
+    out, wav = tmp_path / "r.csv", tmp_path / "r.wav"
+    args = ["runup", str(toml), "--rpm-from", "1500", "--rpm-to", "2500", "--duration", "2",
+            "--out", str(out), "--wav", str(wav), "-q"]
+    assert main(args) == 0
+    table = pd.read_csv(out)
+    box = Gearbox.from_toml(toml)
+    for gi, g in enumerate(box.gears):
+        rr = replay(box, gi, 1500.0, 2500.0, 2.0)
+        rows = table[table.gear == g.name]
+        assert len(rows) == rr.impact_t.size > 0
+        np.testing.assert_array_equal(rows.t_s.to_numpy(), rr.impact_t)
+        np.testing.assert_array_equal(rows.impulse_Ns.to_numpy(), rr.impact_impulse)
+    assert np.all(np.diff(table.t_s.to_numpy()) >= 0)
+    rate, data = wavfile.read(wav)
+    assert rate == 48_000 and data.size == 2 * 48_000
+    capsys.readouterr()
+    assert main(["runup", str(toml), "--rpm-to", "5000", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "outside the measurement's speed range [975.2" in err[0]
