@@ -405,20 +405,23 @@ def _slopes(nl, zup, rns, rns_scaled, usl, zstep, spec_len, every):
     rv = np.empty(spec_len)   # the table's loudness step in force there
     sp = np.empty(spec_len)   # specific loudness
     for c in range(m):
+        keep = c % every == 0
+        # Each band starts flat at its core loudness.  Within a band, the walk below writes a
+        # step before it reads it, so only a band's first and last steps need their values
+        # (and the specific loudness only in the frames that are kept).
         for i in range(nb):
             lo = zstep[i - 1] if i > 0 else 0
-            idx = _step_index(nl[i, c], rns_scaled, False)
+            hi = zstep[i] - 1
             v = nl[i, c]
-            vz = zup[i]
-            vu = usl[idx, i]
-            vr = rns[idx]
-            vs = v if i < nb - 1 else 0.0
-            for r in range(lo, zstep[i]):
-                n2[r] = v
-                z2[r] = vz
-                us[r] = vu
-                rv[r] = vr
-                sp[r] = vs
+            n2[lo] = v
+            n2[hi] = v
+            z2[lo] = zup[i]
+            z2[hi] = zup[i]
+            rv[hi] = rns[_step_index(v, rns_scaled, False)]
+            if keep:
+                vs = v if i < nb - 1 else 0.0
+                for r in range(lo, hi + 1):
+                    sp[r] = vs
         N = 0.0
         n1 = 0.0
         z1 = 0.0
@@ -471,8 +474,9 @@ def _slopes(nl, zup, rns, rns_scaled, usl, zstep, spec_len, every):
                         dz = z2[j] - z1
                         n2[j] = n1 - dz * us[j]
                         N += dz * (n1 + n2[j]) / 2
-                        sp[j] = n1 - (z - z1) * us[j]
-                else:
+                        if keep:
+                            sp[j] = n1 - (z - z1) * us[j]
+                elif keep:
                     sp[j] = n1 - (z - z1) * us[j]
                 z += 0.1
                 z1 = z2[j]
@@ -494,7 +498,7 @@ def _slopes(nl, zup, rns, rns_scaled, usl, zstep, spec_len, every):
         else:
             N = math.floor(N * 100 + 0.5) / 100
         total[c] = N
-        if c % every == 0:
+        if keep:
             for r in range(spec_len):
                 spec_out[r, c // every] = sp[r]
     return total, spec_out
