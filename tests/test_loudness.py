@@ -176,3 +176,20 @@ speed_ratio = 0.8
     assert (serial[serial["gear"] == GEARBOX]["loudness_sone"] > 0).any()
     with pytest.raises(ValueError, match="threads"):
         verdict(box, rpm, threads=0, **kw)
+
+
+def test_every_kernel_is_compiled_nogil_without_fastmath():
+    """Every numba kernel of the loudness and the sound releases the GIL (so threads run them at
+    once) and keeps IEEE arithmetic (no fastmath)."""
+    from numba.core.registry import CPUDispatcher
+
+    from rattle_core.analysis import loudness as L
+    from rattle_core.analysis import sound
+    kernels = [f for mod in (L, sound) for f in vars(mod).values()
+               if isinstance(f, CPUDispatcher)]
+    names = {k.py_func.__name__ for k in kernels}
+    assert {"_band_levels", "_core_loudness", "_nonlinear_decay", "_slopes",
+            "_temporal_weighting", "_sharpness", "_zwtv", "_ring"} <= names
+    for k in kernels:
+        opts = k.targetoptions
+        assert opts.get("nogil") and not opts.get("fastmath"), k
