@@ -55,9 +55,12 @@ def gearbox_text(data: bytes, order_map: Any) -> Any:
         raise ValueError(f"the upload has {len(data)} bytes; the allowed size is up to {MAX_TOML_BYTES}")
     try:
         text = data.decode("utf-8")
-    except UnicodeDecodeError:
-        raise ValueError("the gearbox file is not UTF-8 text") from None
-    return Gearbox.from_text(text, base_dir=None, measurement=order_map)
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"the uploaded gearbox file, byte {exc.start}: the file is not UTF-8 "
+                         "text") from None
+    # the upload's own name is not used: it is the user's text and could hold anything
+    return Gearbox.from_text(text, base_dir=None, measurement=order_map,
+                             source="the uploaded gearbox file")
 
 
 def verdicts(gearbox: Any, variant: Any, rpm: np.ndarray, transient: int, record: int,

@@ -20,10 +20,12 @@ from rattle_core.paper.drawing import atlas_png
 from rattle_core.store.exports import TABLE_SUFFIXES, write_table
 
 from ..common import (CLIError, Progress, add_command, axis_label, check_output,
-                      distinct_outputs, info, label, meta)
+                      distinct_outputs, finite, info, label, meta)
 from ..options import add_model_options, build_params
 
 HELP = "follow a bifurcation in a second parameter: its curve to CSV"
+#: Most periods simulated before the orbit of START simulate is taken (find_orbit's bound).
+MAX_TRANSIENT = 1_000_000
 
 STARTS = ("c", "c-unstable", "simulate", "contact")
 KINDS = {"pd": "period_doubling", "period_doubling": "period_doubling", "fold": "fold",
@@ -112,6 +114,10 @@ def run(args: argparse.Namespace) -> int:
     start, param, direction, kind, nth = parse_spec(args.spec)
     bounds = _pair(args.bounds, "--bounds")
     bounds1 = _pair(args.bounds1, "--bounds1")
+    finite(args.x0, "--x0")
+    if not 0 <= args.transient <= MAX_TRANSIENT:
+        raise CLIError(f"--transient {args.transient} is outside the allowed range "
+                       f"[0, {MAX_TRANSIENT}]")
     if not 1 <= args.max_points <= cont.MAX_CURVE_POINTS:
         raise CLIError(f"--max-points {args.max_points} is outside the allowed range "
                        f"[1, {cont.MAX_CURVE_POINTS}]")

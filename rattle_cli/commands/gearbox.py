@@ -66,6 +66,8 @@ def run(args: argparse.Namespace) -> int:
     """Run every gear of GEARBOX.toml at every speed as one batch (cached on disk): its regime,
     impacts per second, rattle intensity, the loudness (ISO 532-1, sone) and sharpness
     (DIN 45692, acum) of its rattle and of the whole gearbox, and the speed from which it rattles."""
+    if not 1 <= args.workers <= 256:
+        raise CLIError(f"--workers {args.workers} is outside the allowed range [1, 256]")
     out = check_output(args.out, (".csv", ".parquet"), "--out")
     png = None
     if args.png is not None:

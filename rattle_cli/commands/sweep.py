@@ -138,6 +138,8 @@ def run(args: argparse.Namespace) -> int:
     (rattle_core.batch.sweep.PERIOD_BUDGET)."""
     if not 1 <= args.workers <= 256:
         raise CLIError(f"--workers {args.workers} is outside the allowed range [1, 256]")
+    if args.no_png and args.png is not None:
+        raise CLIError(f"--no-png and --png {args.png!r} contradict each other; give one")
     out = check_output(args.out, SWEEP_SUFFIXES, "--out")
     png = summary = None
     if not args.no_png:

@@ -57,7 +57,7 @@ from ..analysis.sound import render
 from ..analysis.statistics import estimate
 from ..analysis.vocabulary import regime_letters
 from ..model.gearbox import Gearbox
-from ..model.params import RattleParams
+from ..model.params import RattleParams, check_cancel, check_progress
 from ..solver.trajectory import SOLVER_VERSION, _check_int
 from .chunks import run_chunk, summary_arrays
 from .ensemble import statistics
@@ -298,6 +298,7 @@ def verdict(gearbox: Gearbox, rpm: Any, *, transient: int = 200, record: int = 1
     import pandas as pd
     if not isinstance(gearbox, Gearbox):
         raise ValueError(f"gearbox must be a Gearbox, got {type(gearbox).__name__}")
+    progress, cancel = check_progress(progress), check_cancel(cancel)
     r = check_rpm(rpm, gearbox)
     transient = _check_int("transient", transient, 0, 100_000)
     record = _check_int("record", record, BLOCKS, 100_000)
