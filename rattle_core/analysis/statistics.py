@@ -187,7 +187,10 @@ def sensitivity_verdict(rows: list[dict]) -> tuple[bool, list[str]]:
       exceeds the χ² quantile with ``levels − 1`` degrees of freedom at
       ``SENSITIVITY_ALPHA / 4``: a Bonferroni split of a 1 % family-wise false alarm over the
       four statistics.  An exact (periodic) value at noise ε is known to ``1e-9 + 100 ε``
-      relative, the orbit's own shift under that noise, which stands in for its standard error.
+      relative, the orbit's own shift under that noise, which stands in for its standard error
+      (even from one run).  A noisy value from one run has no interval: it weighs nothing and
+      its level is not counted, and a statistic with fewer than two weighed levels is not
+      tested.
 
     Returns ``(sensitive, reasons)``, each reason a sentence naming the statistic.
     """
