@@ -18,6 +18,7 @@ holds them stretches, and the parts a lecture does not need are hidden.
 from __future__ import annotations
 
 import weakref
+from html import escape
 from typing import Any
 
 import panel as pn
@@ -86,6 +87,11 @@ class Shell:
             sidebar_width=SIDEBAR_WIDTH, main=[self.notes, self.tabs], header=[self.header],
             header_background="#2c3e50")
         self.layout.config.raw_css.append(PAGE_CSS)
+
+    def fail(self, text: str) -> None:
+        """The dashboard could not be built: say so where "computing…" was."""
+        self.skeleton.object = (f'<div class="page-skeleton" data-kind="failed" style="padding: '
+                                f'24px 12px; font-size: 18px; color: #a00;">{escape(text)}</div>')
 
 
 class Dashboard:

@@ -160,6 +160,10 @@ def create_app() -> pn.template.BootstrapTemplate:
                                    alive=lambda: not client_gone(doc)))
         except Abandoned:
             log.info("the page's client went away: its dashboard's build was abandoned")
+        except Exception as exc:  # the page says so instead of computing for ever
+            log.exception("building a page failed")
+            shell.fail(f"The page could not be built ({type(exc).__name__}: {exc}). "
+                       "Reload it; if it fails again, the server's log says why.")
 
     def destroyed(session_context) -> None:
         try:

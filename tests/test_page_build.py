@@ -94,3 +94,17 @@ def test_a_connected_client_gets_its_dashboard_built_into_the_frame(job_pool):
     finally:
         session_module.Session.__init__ = original
     assert left and not _built_in(layout) and len(layout.main[1]) == 0
+
+
+def test_a_build_that_fails_says_so_where_computing_was(job_pool, monkeypatch):
+    """A dashboard that raises while built leaves the page saying it could not be built, with
+    the error, instead of "computing…" for ever."""
+    import app.main as main
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("no run")
+    monkeypatch.setattr(main, "Dashboard", broken)
+    doc, ctx, layout = _page(1)
+    state._on_load(doc)
+    text = layout.main[0][0].object
+    assert "computing…" not in text and "could not be built" in text and "no run" in text
