@@ -1,4 +1,5 @@
-"""Browser test: a page shows its frame and a "computing…" note at once, before its first plot.
+"""Browser tests: a page shows its frame and a "computing…" note at once, before its first
+plot; and the noise badge, seen in the page, names coexisting attractors.
 
 The server sends the page's frame (:class:`app.dashboard.Shell`) without waiting for the first
 run, and builds the dashboard into it once the browser has connected.
@@ -45,3 +46,17 @@ def test_a_page_shows_computing_within_a_second_then_its_plots(page, dashboard_s
     page.wait_for_function(READY, timeout=120_000)
     page.wait_for_function(LOADED, timeout=60_000)
     assert page.get_by_text("computing…").count() == 0
+
+
+def test_the_noise_badge_in_the_page_names_the_coexisting_attractors(page, dashboard_server):
+    """Fig 2's settings at Λ = 1.16 from a link: the badge the browser shows lists B, D and C
+    with their runs and quotes D's own mean active impulse (≈ 8.53) for the chaotic run."""
+    query = "?lam=1.16&r=0.65&j=8.0&h2=0.0&phi2=0.0&phases=paper&shown=12"
+    page.goto(f"{dashboard_server['url']}/{query}", wait_until="commit")
+    page.wait_for_function(READY, timeout=120_000)
+    badge = page.locator(".noise-check").filter(has_text="attractors").first
+    badge.wait_for(state="visible", timeout=240_000)
+    text = badge.inner_text()
+    assert "3 attractors at noise 1e-12: B (4 of 8 runs), D (3), C (1)." in text, text
+    assert "The run on screen is on D: mean active impulse 8.5" in text, text
+    assert "0.06218" not in text
