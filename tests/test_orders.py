@@ -361,3 +361,31 @@ def test_memory_of_a_large_steady_file_is_linear_and_small(tmp_path):
     bins, grown = r.stdout.split()
     assert int(bins) == 1
     assert int(grown) < 400 * n, f"{int(grown) / n:.0f} bytes per sample"
+
+
+# ----- an uploaded measurement's own bounds (the dashboard's worker function) -----------------
+
+def test_an_upload_has_its_own_size_row_and_time_bounds_told_about_the_file(monkeypatch):
+    """The dashboard's measurement job refuses a file over 20 MB, over its row bound and over
+    its own time bound, each with a message about the file (never the compute jobs' "fewer
+    values or periods"); the server's websocket takes a 20 MB file base64-encoded, with room."""
+    from app import main
+    from app.views.gearbox import GearboxView
+    from app.work import gearbox as work
+    text = "\n".join(["time_s,speed_rpm"] + steady_lines(4000)).encode() + b"\n"
+    assert work.measurement(text, ORDERS, 100.0).rpm.size == 1
+    with pytest.raises(ValueError, match=r"the uploaded file has 20000001 bytes; the allowed "
+                                         r"size is up to 20000000 bytes \(20 MB\)"):
+        work.measurement(b"x" * 20_000_001, ORDERS, 100.0)
+    monkeypatch.setattr(work, "MEASUREMENT_MAX_ROWS", 1000)
+    with pytest.raises(ValueError, match=r"the uploaded file, line 1002: more than 1000 samples"):
+        work.measurement(text, ORDERS, 100.0)
+    monkeypatch.setattr(work, "MEASUREMENT_MAX_ROWS", 10**6)
+    monkeypatch.setattr(work, "MEASUREMENT_SECONDS", 0.0)
+    with pytest.raises(ValueError, match=r"the uploaded file took over 0 s to read and analyse"):
+        work.measurement(text, ORDERS, 100.0)
+    killed = GearboxView._file_error("stopped after 90 s, the time limit of one job on this "
+                                     "server; try fewer values or periods")
+    assert "the uploaded file took too long" in killed and "fewer values" not in killed
+    assert main.WEBSOCKET_MAX_BYTES > 4 / 3 * work.MAX_MEASUREMENT_BYTES * 1.2
+    assert work.MEASUREMENT_JOB_LIMIT > work.MEASUREMENT_SECONDS

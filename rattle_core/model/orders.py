@@ -200,10 +200,12 @@ class OrderMap:
     def from_csv(cls, path: str | os.PathLike, orders: Any = DEFAULT_ORDERS,
                  rpm_step: float = 100.0, label: str | None = None, *,
                  progress: Callable[[int, int], Any] | None = None,
-                 cancel: Callable[[], bool] | None = None) -> "OrderMap":
+                 cancel: Callable[[], bool] | None = None,
+                 max_rows: int | None = None) -> "OrderMap":
         """Order analysis of a CSV file with columns ``time_s`` and ``speed_rpm``; ``label``
         names the file in messages and in :attr:`source` (default: its name).  ``progress``
-        and ``cancel`` as in :meth:`from_arrays` (reading is the first tenth)."""
+        and ``cancel`` as in :meth:`from_arrays` (reading is the first tenth); ``max_rows``
+        as in :func:`read_speed_csv`."""
         label = Path(path).name if label is None else label
         step = _Steps(progress, cancel)
         try:
@@ -212,7 +214,7 @@ class OrderMap:
         except ValueError as exc:
             raise ValueError(f"{label}, {exc}") from None
         step(0.0)
-        t, w, lines = read_speed_csv(path, label)
+        t, w, lines = read_speed_csv(path, label, max_rows)
         step(0.1)
         try:
             return cls._from_arrays(t, w, orders, rpm_step, label, lines, step.within(0.1, 1.0))
@@ -430,9 +432,12 @@ class _Lines:
         return buf[np.repeat(keep, sizes)].tobytes()
 
 
-def read_speed_csv(path: str | os.PathLike, label: str | None = None
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def read_speed_csv(path: str | os.PathLike, label: str | None = None,
+                   max_rows: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(time_s, speed_rpm, line numbers)`` of a measurement CSV, read whole and checked.
+
+    ``max_rows`` (default :data:`MAX_ROWS`) bounds the samples, and with them the memory of
+    the reading and of an analysis; it is checked before any number is parsed.
 
     Lines are classified (header, data, blank, comment) on the raw bytes first, so that every
     sample keeps its line number for messages; the numbers are parsed by pandas' C reader.
@@ -457,9 +462,10 @@ def read_speed_csv(path: str | os.PathLike, label: str | None = None
                          f"found {', '.join(header)[:200]}")
     it, iw = header.index("time_s"), header.index("speed_rpm")
     body = data_lines[1:]  # index of each sample's line
-    if body.size > MAX_ROWS:
-        raise ValueError(f"{name}, line {int(body[MAX_ROWS]) + 1}: more than {MAX_ROWS} samples; "
-                         f"the allowed size is up to {MAX_ROWS} rows")
+    limit = MAX_ROWS if max_rows is None else min(int(max_rows), MAX_ROWS)
+    if body.size > limit:
+        raise ValueError(f"{name}, line {int(body[limit]) + 1}: more than {limit} samples; "
+                         f"the allowed size is up to {limit} rows")
     if body.size == 0:
         return np.empty(0), np.empty(0), np.empty(0, np.int64)
     if body.size == lines.starts.size - h - 1:  # every line after the header holds data
