@@ -52,6 +52,12 @@ _warm_lock = threading.Lock()
 _warm = False
 #: Seconds after which a session whose page is closed is destroyed, and how often to look.
 UNUSED_SESSION_S = 5
+#: Largest websocket message the server takes [bytes]. An upload travels base64-encoded in one
+#: message, 4/3 of its size: the 20 MB measurement limit needs 26.7 MB, over Bokeh's default
+#: 20 MiB. At 64 MiB a file of up to 48 MB reaches the server and is refused with a message
+#: naming the limit, instead of cutting the page's connection. (``panel serve app/main.py``
+#: takes the same as ``--websocket-max-message-size``.)
+WEBSOCKET_MAX_BYTES = 64 * 2**20
 
 
 def _recompute_only_when_needed() -> None:
@@ -278,6 +284,7 @@ def serve(port: int = 5006, address: str = "localhost", show: bool = False,
         origins = kwargs.pop("websocket_origin", None) or [f"{address}:{port}", f"localhost:{port}",
                                                            f"127.0.0.1:{port}"]
         kwargs.setdefault("check_unused_sessions", UNUSED_SESSION_S * 1000)
+        kwargs.setdefault("websocket_max_message_size", WEBSOCKET_MAX_BYTES)
         kwargs.setdefault("unused_session_lifetime", UNUSED_SESSION_S * 1000)
         server = None
         try:

@@ -16,7 +16,6 @@ from pathlib import Path
 
 import pytest
 
-import rattle_cli.commands.continue_ as continue_command
 from rattle_cli.main import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -156,7 +155,7 @@ def test_continuation_tables_are_checked_before_the_search(tail, tmp_path, capsy
     """continue checks OUT_impacts and OUT_bifurcations before it looks for an orbit."""
     def no_search(*a, **k):
         raise AssertionError("an orbit was searched before the outputs were checked")
-    monkeypatch.setattr(continue_command.cont, "find_orbit", no_search)
+    monkeypatch.setattr("rattle_core.analysis.continuation.find_orbit", no_search)
     (tmp_path / f"c{tail}.csv").mkdir()
     one_line_error(["continue", "--lam", "3.3", "--out", str(tmp_path / "c.csv")], capsys,
                    f"c{tail}.csv")

@@ -14,11 +14,6 @@ from __future__ import annotations
 import argparse
 import sys
 
-from rattle_core.analysis import continuation as cont
-from rattle_core.analysis.continuation.plane import _Plane
-from rattle_core.paper.drawing import atlas_png
-from rattle_core.store.exports import TABLE_SUFFIXES, write_table
-
 from ..common import (CLIError, Progress, add_command, axis_label, check_output,
                       distinct_outputs, finite, info, label, meta)
 from ..options import add_model_options, build_params
@@ -104,6 +99,10 @@ def run(args: argparse.Namespace) -> int:
     bifurcation's defining condition, solved exactly, with the codimension-two points where
     the curve meets another. Writes OUT (one row per point: both parameters, impulses,
     multipliers) and OUT_codim2, as .csv or .parquet; --png draws the curve."""
+    from rattle_core.analysis import continuation as cont
+    from rattle_core.analysis.continuation.plane import _Plane
+    from rattle_core.paper.drawing import atlas_png
+    from rattle_core.store.exports import TABLE_SUFFIXES, write_table
     import pandas as pd
 
     out = check_output(args.out, TABLE_SUFFIXES, "--out")
@@ -170,6 +169,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _find(params, start, param, direction, kind, nth, bounds1, physical, args):
     """The ``nth`` bifurcation of ``kind`` on the branch of the start orbit."""
+    from rattle_core.analysis import continuation as cont
     if start == "simulate":
         orb = cont.find_orbit(params, x0=args.x0, transient=args.transient)
     else:
