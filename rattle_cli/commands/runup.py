@@ -4,13 +4,6 @@ from __future__ import annotations
 import argparse
 import math
 
-import numpy as np
-
-from rattle_core.analysis.sound import normalize, render, write_wav
-from rattle_core.model.gearbox import Gearbox
-from rattle_core.solver.runup import check_run, replay
-from rattle_core.store.exports import write_table
-
 from ..common import CLIError, add_command, check_output, distinct_outputs, info
 
 HELP = "replay a run-up exactly: GEARBOX.toml to every impact (CSV) and the gearbox's sound (WAV)"
@@ -38,6 +31,13 @@ def run(args: argparse.Namespace) -> int:
     """Replay every gear of GEARBOX.toml over a linear run-up (or run-down) of the measured
     shaft, exactly (docs/model.md, "A run-up in physical time"): every impact with its time,
     speed, gear, flank and impulse, and each gear's first impact."""
+    import numpy as np
+    import pandas as pd
+
+    from rattle_core.analysis.sound import normalize, render, write_wav
+    from rattle_core.model.gearbox import Gearbox
+    from rattle_core.solver.runup import check_run, replay
+    from rattle_core.store.exports import write_table
     out = check_output(args.out, (".csv", ".parquet"), "--out")
     wav = check_output(args.wav, (".wav",), "--wav") if args.wav else None
     distinct_outputs(out, wav)
@@ -67,7 +67,6 @@ def run(args: argparse.Namespace) -> int:
         if sound is not None and res.impact_t.size:
             sound += gearbox.transfer_pa_per_ns * render(res.impact_t, res.impact_impulse,
                                                          args.duration, WAV_RATE)
-    import pandas as pd
     table = pd.concat(frames, ignore_index=True).sort_values("t_s", kind="stable")
     write_table(table.reset_index(drop=True), out)
     info(args, f"wrote {out}")
