@@ -47,7 +47,7 @@ from rattle_core.batch.gearbox import GEARBOX
 from rattle_core.batch.gearbox import check_rpm as check_verdict_rpm
 from rattle_core.model.gearbox import (DEFAULT_DURATION_S, DEFAULT_TRANSFER_PA_PER_NS,
                                        Excitation, Gear, Gearbox)
-from rattle_core.model.orders import SAMPLE_RUNUP, OrderMap
+from rattle_core.measure.orders import SAMPLE_RUNUP, OrderMap
 from rattle_core.paper.drawing import orders_png, verdict_png
 from rattle_core.store.verdicts import cached_verdict
 

@@ -2,7 +2,7 @@
 
 For each size (1e5, 1e6 and 4e6 rows by default) a synthetic run-up 1000 → 3000 rpm sampled at
 10 kHz (orders 2, 4, 6, sensor noise; about 19 bytes a row, so 1e6 rows is a 19 MB file) is
-written, then read and analysed by :meth:`rattle_core.model.orders.OrderMap.from_csv` in a
+written, then read and analysed by :meth:`rattle_core.measure.orders.OrderMap.from_csv` in a
 fresh process, which reports:
 
 * CPU seconds (user + system, every thread) and wall seconds of the call, the interpreter's
@@ -35,7 +35,7 @@ RATE = 10_000.0
 PROBE = """
 import json, resource, sys, time
 sys.path[:0] = [{root!r}, {tests!r}]
-from rattle_core.model.orders import SAMPLE_RUNUP, OrderMap
+from rattle_core.measure.orders import SAMPLE_RUNUP, OrderMap
 which, path = sys.argv[1], sys.argv[2]
 if which == "new":
     run = lambda p: OrderMap.from_csv(p)

@@ -27,7 +27,7 @@ import numpy as np  # noqa: E402
 
 from rattle_core import simulate  # noqa: E402
 from rattle_core.model.gearbox import Excitation, Gear, Gearbox  # noqa: E402
-from rattle_core.model.orders import SAMPLE_RUNUP, OrderMap  # noqa: E402
+from rattle_core.measure.orders import SAMPLE_RUNUP, OrderMap  # noqa: E402
 from rattle_core.solver.replay import run_wall  # noqa: E402
 from rattle_core.solver.runup import replay, runup_wall  # noqa: E402
 

@@ -11,7 +11,7 @@ It is made, not measured:
   2, 4 and 6, with angular-acceleration amplitudes ``α₂`` rising from 120 to 300 rad/s² over
   the run-up (towards a driveline resonance), ``α₄ = 0.35 α₂``, ``α₆ = 0.12 α₂``, and
   ``θ_k = α_k / (k Ω)²``; phases ``φ₂ = 20°``, ``φ₄ = −60°``, ``φ₆ = 150°``
-  (:mod:`rattle_core.model.orders`' convention);
+  (:mod:`rattle_core.measure.orders`' convention);
 * cycle-to-cycle variation ``c(ψ)``: each firing (every half revolution) scales the
   fluctuation by a random factor of standard deviation 5 %, blended smoothly between firings;
 * sensor noise: white, 0.2 rpm standard deviation.

@@ -1,7 +1,7 @@
-"""A slow, obvious order analysis: the reference for :mod:`rattle_core.model.orders`.
+"""A slow, obvious order analysis: the reference for :mod:`rattle_core.measure.orders`.
 
 :func:`read_speed_csv` reads a measurement row by row with the ``csv`` module. :func:`analyse`
-runs the method of :mod:`rattle_core.model.orders` (its docstring) in the plainest form: each
+runs the method of :mod:`rattle_core.measure.orders` (its docstring) in the plainest form: each
 rpm bin's whole design matrix built in memory and solved by the normal equations, each sample's
 nearest analysed bin found through an (n × bins) table, the moving average by ``np.convolve``.
 It is quadratic in time and memory where the library streams, so it serves small files in the
@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from rattle_core.model.engine import RPM_RANGE
-from rattle_core.model.orders import MIN_REVOLUTIONS, OrderMap
+from rattle_core.measure.orders import MIN_REVOLUTIONS, OrderMap
 
 COLUMNS = ("time_s", "speed_rpm")
 MAX_ROWS = 5_000_000

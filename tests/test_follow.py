@@ -8,7 +8,7 @@ import pytest
 from rattle_core import classify, simulate
 from rattle_core.batch.sweep import sweep
 from rattle_core.model.gearbox import Excitation
-from rattle_core.model.orders import SAMPLE_RUNUP, OrderMap
+from rattle_core.measure.orders import SAMPLE_RUNUP, OrderMap
 from rattle_core.model.units import PhysicalParams, rpm_sweep
 from rattle_core.store.requests import run_map
 

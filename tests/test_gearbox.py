@@ -15,7 +15,7 @@ from rattle_core.analysis.loudness import loudness, loudness_zwtv
 from rattle_core.analysis.sound import render
 from rattle_core.batch.gearbox import GEARBOX, verdict
 from rattle_core.model.gearbox import Gear, Gearbox
-from rattle_core.model.orders import SAMPLE_RUNUP, OrderMap
+from rattle_core.measure.orders import SAMPLE_RUNUP, OrderMap
 from rattle_core.store.verdicts import cached_verdict
 
 ROOT = Path(__file__).resolve().parent.parent

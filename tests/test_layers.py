@@ -1,7 +1,7 @@
 """Data flows one way: every import, static or dynamic, points to the same layer or a lower one.
 
-Layers, lowest first: ``rattle_core.model`` → ``solver`` → ``analysis`` → ``batch`` →
-``store`` → ``paper`` → the ``rattle_core`` package itself (the facade that re-exports the
+Layers, lowest first: ``rattle_core.measure`` (measured signals) → ``model`` → ``solver`` →
+``analysis`` → ``batch`` → ``store`` → ``paper`` → the ``rattle_core`` package itself (the facade that re-exports the
 public names) → the top: the CLI (``rattle_cli``) and the dashboard (``app``, installed as
 ``rattle_app``).  ``rattle_core.jitcache`` sits below them all.  The test reads the source with
 :mod:`ast`, so an import inside a function, under ``TYPE_CHECKING`` or spelled
@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-CORE_LAYERS = ("model", "solver", "analysis", "batch", "store", "paper")
+CORE_LAYERS = ("measure", "model", "solver", "analysis", "batch", "store", "paper")
 BASE = -1
 FACADE = len(CORE_LAYERS)
 TOP = FACADE + 1

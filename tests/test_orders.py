@@ -16,8 +16,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rattle_core.model import orders as om
-from rattle_core.model.orders import OrderMap
+from rattle_core.measure import orders as om
+from rattle_core.measure import read as rd
+from rattle_core.measure.orders import OrderMap
 
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLE = ROOT / "rattle_core" / "assets" / "measurements" / "runup_4cyl_synthetic.csv.gz"
@@ -170,11 +171,11 @@ def test_a_bin_with_under_four_revolutions_is_refused(tmp_path):
 def test_an_absurd_size_is_refused_before_reading(tmp_path, monkeypatch):
     """A file over the byte limit is refused whole; so is one over the row limit, at its line."""
     path = write(tmp_path, "\n".join(["time_s,speed_rpm"] + steady_lines()) + "\n")
-    monkeypatch.setattr(om, "MAX_BYTES", 1000)
+    monkeypatch.setattr(rd, "MAX_BYTES", 1000)
     with pytest.raises(ValueError, match=r"has \d+ bytes; the allowed size is up to 1000 bytes"):
         OrderMap.from_csv(path)
-    monkeypatch.setattr(om, "MAX_BYTES", 10**9)
-    monkeypatch.setattr(om, "MAX_ROWS", 100)
+    monkeypatch.setattr(rd, "MAX_BYTES", 10**9)
+    monkeypatch.setattr(rd, "MAX_ROWS", 100)
     with pytest.raises(ValueError, match=r"line 102: more than 100 samples"):
         OrderMap.from_csv(path)
 
@@ -333,7 +334,7 @@ def test_progress_rises_to_the_end_and_cancel_stops_the_analysis():
 MEMORY_PROBE = """
 import resource, sys
 import numpy as np
-from rattle_core.model.orders import OrderMap
+from rattle_core.measure.orders import OrderMap
 OrderMap.from_csv(sys.argv[2])   # imports and compiled kernels loaded
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 m = OrderMap.from_csv(sys.argv[1])

@@ -28,7 +28,7 @@ from pathlib import Path
 import rattle_core, rattle_cli, rattle_app.main
 from rattle_core.store import assets
 from rattle_core.paper.cases import SWEEP_CASES
-from rattle_core.model.orders import SAMPLE_RUNUP
+from rattle_core.measure.orders import SAMPLE_RUNUP
 found = {name: assets.read_asset(name) is not None for name in assets.list_assets()}
 files = [str(f) for f in importlib.metadata.distribution("rattle-explorer").files]
 print(json.dumps({

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from naive import NaiveRunup, naive_runup
 from rattle_core import classify, simulate
 from rattle_core.model.gearbox import Excitation, Gear, Gearbox
-from rattle_core.model.orders import SAMPLE_RUNUP, OrderMap
+from rattle_core.measure.orders import SAMPLE_RUNUP, OrderMap
 from rattle_core.solver.runup import RUNUP_PERIOD_BUDGET, replay, runup_wall
 
 STEADY = """

@@ -56,5 +56,5 @@ def test_the_orders_default_written_out_in_the_cli_is_the_core_default():
     """``rattle orders`` spells its default orders out (to import nothing at --help): they are
     the core's ``DEFAULT_ORDERS``."""
     from rattle_cli.commands import orders
-    from rattle_core.model.orders import DEFAULT_ORDERS
+    from rattle_core.measure.orders import DEFAULT_ORDERS
     assert tuple(float(k) for k in orders.DEFAULT_ORDERS.split(",")) == DEFAULT_ORDERS

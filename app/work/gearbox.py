@@ -5,7 +5,7 @@ Uploaded bytes are untrusted: they are parsed here, in a worker, never in the se
 A measurement has bounds of its own (:data:`MEASUREMENT_SECONDS`, :data:`MEASUREMENT_MAX_ROWS`),
 apart from the compute jobs' limits, and reports its progress. A measurement is written to a temporary file of this module's
 own naming (``rattle-upload-*``), read whole and checked by
-:meth:`rattle_core.model.orders.OrderMap.from_csv`, and deleted; no name taken from an upload
+:meth:`rattle_core.measure.orders.OrderMap.from_csv`, and deleted; no name taken from an upload
 ever reaches the file system. A gearbox text is parsed with no folder to look in, so it can
 open no file (:meth:`rattle_core.model.gearbox.Gearbox.from_text`).
 """

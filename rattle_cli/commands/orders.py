@@ -6,7 +6,7 @@ import argparse
 from ..common import CLIError, Progress, add_command, check_output, distinct_outputs, info
 
 HELP = "engine orders of a measured speed (time_s, speed_rpm) per rpm bin, to CSV"
-#: rattle_core.model.orders.DEFAULT_ORDERS, written out so that --help imports nothing heavy
+#: rattle_core.measure.orders.DEFAULT_ORDERS, written out so that --help imports nothing heavy
 DEFAULT_ORDERS = "2,4,6"
 
 
@@ -30,7 +30,7 @@ def run(args: argparse.Namespace) -> int:
     engine order's angular displacement (rad), acceleration (rad/s²) and phase per rpm bin, with
     θ(t) = Σ θ_k cos(k ψ − φ_k), ψ the mean shaft angle from the file's start.  A progress bar
     follows the reading and the analysis; Ctrl-C stops it."""
-    from rattle_core.model.orders import OrderMap, check_orders
+    from rattle_core.measure.orders import OrderMap, check_orders
     from rattle_core.paper.drawing import orders_png
     from rattle_core.store.exports import write_table
     out = check_output(args.out, (".csv",), "--out")
@@ -44,8 +44,9 @@ def run(args: argparse.Namespace) -> int:
         raise CLIError(f"--orders: {exc}") from None
     bar = Progress("orders", enabled=not args.quiet, unit="%")
     try:
+        # the bar starts once the file is read, so a refused file leaves one line on stderr
         omap = OrderMap.from_csv(args.file, orders, args.rpm_step,
-                                 progress=lambda done, total: bar(100 * done // total, 100))
+                                 progress=lambda done, total: done and bar(100 * done // total, 100))
     finally:
         bar.close()
     write_table(omap.to_frame(), out)

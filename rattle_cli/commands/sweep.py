@@ -237,7 +237,7 @@ def run(args: argparse.Namespace) -> int:
 def _follow(args: argparse.Namespace, phys):
     """The excitation that follows engine speed (``--orders-from``), or None."""
     from rattle_core.model.gearbox import Excitation
-    from rattle_core.model.orders import OrderMap
+    from rattle_core.measure.orders import OrderMap
     if args.orders_from is None:
         return None
     if phys is None:

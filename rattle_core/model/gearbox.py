@@ -55,7 +55,7 @@ from typing import Any
 import numpy as np
 
 from .engine import RPM_RANGE
-from .orders import MAX_ORDERS, ORDER_RANGE, SAMPLE_RUNUP, OrderMap
+from ..measure.orders import MAX_ORDERS, ORDER_RANGE, SAMPLE_RUNUP, OrderMap
 from .params import R_RANGE, check_range
 from .units import (ALPHA_RANGE, DRAG_TORQUE_RANGE, INERTIA_RANGE, RADIUS_RANGE, THETA_RANGE,
                     PhysicalParams)
