@@ -128,7 +128,7 @@ def steady_lines(n: int = 2000, rate: float = 4000.0, rpm: float = 1500.0) -> li
 
 
 @pytest.mark.parametrize("mutate, message", [
-    (lambda L: ["time,speed"] + L, r"line 1: the header lacks the column\(s\) time_s, speed_rpm"),
+    (lambda L: ["a,b"] + L, r"line 1: no time column recognised among 'a', 'b'.*--time-column"),
     (lambda L: ["time_s,speed_rpm"] + L[:99] + ["0.01,1500"] + L[100:],
      r"line 101: time_s = 0.01 does not increase"),
     (lambda L: ["time_s,speed_rpm"] + L[:500] + L[520:], r"line 502: a gap of"),
@@ -144,13 +144,22 @@ def test_bad_files_are_refused_with_the_line_at_fault(tmp_path, mutate, message)
         OrderMap.from_csv(path)
 
 
-def test_too_few_samples_per_cycle_names_the_line(tmp_path):
-    """Sampled at 1000 Hz, order 6 at 1500 rpm (150 Hz) has under 20 samples per cycle."""
-    lines = ["# a comment", "time_s,speed_rpm"] + steady_lines(rate=1000.0)
+def test_an_order_too_fast_for_the_sampling_is_left_out_and_the_rest_analysed(tmp_path):
+    """Sampled at 1000 Hz, order 6 at 1400 rpm (140 Hz) has under 20 samples per cycle: it is
+    NaN with a notice naming it, while order 2 (20 samples per cycle up to 1500 rpm) is
+    analysed; asking for order 6 alone is refused, and a verdict needing it is refused with the
+    speeds it was resolved at."""
+    lines = ["# a comment", "time_s,speed_rpm"] + steady_lines(rate=1000.0, rpm=1400.0)
     path = write(tmp_path, "\n".join(lines) + "\n")
-    with pytest.raises(ValueError, match=r"line 3: at 1500[.\d]* rpm the sampling gives 6\.67 "
-                                         r"samples per cycle of order 6"):
-        OrderMap.from_csv(path)
+    omap = OrderMap.from_csv(path, orders=(2, 6))
+    assert np.all(np.isfinite(omap.amplitude_rad[:, 0])) and np.all(np.isnan(omap.amplitude_rad[:, 1]))
+    assert any("order 6 is not analysed at any speed" in n and "above 500 rpm" in n
+               for n in omap.notices), omap.notices
+    with pytest.raises(ValueError, match=r"order 6 is needed at 1400 rpm, but .* resolves it at "
+                                         r"no speed"):
+        omap.at(1400.0, [6])
+    with pytest.raises(ValueError, match=r"fewer than 20 samples per cycle of every order"):
+        OrderMap.from_csv(path, orders=(6,))
     assert OrderMap.from_csv(path, orders=(0.5,)).orders.tolist() == [0.5]
 
 
@@ -176,7 +185,7 @@ def test_an_absurd_size_is_refused_before_reading(tmp_path, monkeypatch):
         OrderMap.from_csv(path)
     monkeypatch.setattr(rd, "MAX_BYTES", 10**9)
     monkeypatch.setattr(rd, "MAX_ROWS", 100)
-    with pytest.raises(ValueError, match=r"line 102: more than 100 samples"):
+    with pytest.raises(ValueError, match=r"line 103: more than 102 lines \(blank and comment lines count\)"):
         OrderMap.from_csv(path)
 
 
@@ -206,7 +215,7 @@ def test_cli_orders_writes_the_table_and_refuses_a_bad_file(tmp_path):
     assert list(df.columns) == ["rpm", "order", "amplitude_rad", "accel_rad_s2", "phase_deg"]
     assert sorted(set(df["order"])) == [2.0, 4.0] and len(df) == 2 * df["rpm"].nunique()
     assert (tmp_path / "orders.png").stat().st_size > 1000
-    bad = write(tmp_path, "time_s,speed\n0,1\n")
+    bad = write(tmp_path, "time_s,x\n0,1\n")
     r = subprocess.run(run + [str(bad), "--out", str(tmp_path / "b.csv")], capture_output=True,
                        text=True, cwd=ROOT, timeout=300)
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "line 1" in r.stderr
@@ -305,7 +314,7 @@ def test_a_file_that_is_not_utf8_or_not_gzip_is_refused(tmp_path):
     """Bytes that are not UTF-8, and a .gz that is not gzip, are refused naming the file."""
     bad = tmp_path / "latin.csv"
     bad.write_bytes("time_s,speed_rpm\n0,1500 \xe9\n".encode("latin-1"))
-    with pytest.raises(ValueError, match="latin.csv is not a UTF-8 text file"):
+    with pytest.raises(ValueError, match="latin.csv, line 2: text that is not UTF-8"):
         OrderMap.from_csv(bad)
     fake = tmp_path / "fake.csv.gz"
     fake.write_bytes(b"time_s,speed_rpm\n")
@@ -379,7 +388,7 @@ def test_an_upload_has_its_own_size_row_and_time_bounds_told_about_the_file(monk
                                          r"size is up to 20000000 bytes \(20 MB\)"):
         work.measurement(b"x" * 20_000_001, ORDERS, 100.0)
     monkeypatch.setattr(work, "MEASUREMENT_MAX_ROWS", 1000)
-    with pytest.raises(ValueError, match=r"the uploaded file, line 1002: more than 1000 samples"):
+    with pytest.raises(ValueError, match=r"the uploaded file, line 1003: more than 1002 lines \(blank and comment lines count\)"):
         work.measurement(text, ORDERS, 100.0)
     monkeypatch.setattr(work, "MEASUREMENT_MAX_ROWS", 10**6)
     monkeypatch.setattr(work, "MEASUREMENT_SECONDS", 0.0)

@@ -63,14 +63,17 @@ import numpy as np
 from numba import njit
 
 from .checks import RPM_RANGE, check_range
+from .measurement import read_measurement
+from .pulses import PULSES_PER_CYCLE, averaging_gain
 from .read import MAX_BYTES, MAX_ROWS, _check_size, _header, read_speed_csv
+from .sampling import GAP_FACTOR, regularise
 
 #: Samples required per cycle of the highest order analysed.
 MIN_SAMPLES_PER_CYCLE = 20
+#: Samples per cycle below which an order is left out of a bin's fit altogether.
+NUISANCE_PER_CYCLE = 4
 #: Revolutions required in an rpm bin.
 MIN_REVOLUTIONS = 4
-#: A time step over this many times the median step is a gap.
-GAP_FACTOR = 1.5
 #: Rows of a design matrix (or of any pass over the samples) handled at once.
 BLOCK_ROWS = 4096
 #: ``progress(done, total)`` of an analysis counts to this.
@@ -132,6 +135,12 @@ class OrderMap:
         Bin width [rev/min]; the map answers for speeds within half a step of its bins.
     source : str
         Where the map came from (a file name, "arrays", "table").
+    detected : Detected or None
+        How a file was read: delimiter, decimal mark, columns, unit, rows, duration, sample
+        rate, resampling, warnings.
+    notices : tuple of str
+        What the analysis left out: an order not resolved at every speed is NaN where it is
+        not, and a notice gives the speeds where it is.
     """
 
     rpm: np.ndarray
@@ -141,6 +150,10 @@ class OrderMap:
     phase_deg: np.ndarray
     rpm_step: float
     source: str = ""
+    #: how the file was read (:class:`rattle_core.measure.read.Detected`), for a map from a file
+    detected: Any = None
+    #: what the analysis left out or changed, one sentence each
+    notices: tuple[str, ...] = ()
 
     # ----- building ------------------------------------------------------------------
     @classmethod
@@ -177,27 +190,46 @@ class OrderMap:
 
     @classmethod
     def _from_arrays(cls, time_s: Any, speed_rpm: Any, orders: Any, rpm_step: float, source: str,
-                     lines: np.ndarray | None, step: "_Steps") -> "OrderMap":
+                     lines: np.ndarray | None, step: "_Steps", max_order: float | None = None
+                     ) -> "OrderMap":
         orders_t = check_orders(orders)
         rpm_step = check_range("rpm_step", rpm_step, *RPM_STEP_RANGE)
+        if max_order is not None and max(orders_t) > max_order:
+            raise ValueError(f"order {max(orders_t):g} is above the highest order the pulses "
+                             f"resolve, {max_order:g} (pulses_per_rev / {PULSES_PER_CYCLE}); "
+                             "analyse lower orders, or measure more pulses per revolution")
         t = _as_column("time_s", time_s)
         w = _as_column("speed_rpm", speed_rpm)
         if t.size != w.size:
             raise ValueError(f"time_s has {t.size} samples but speed_rpm has {w.size}")
         where = (lambda i: f"line {int(lines[i])}") if lines is not None else (lambda i: f"sample {i}")
-        _check_samples(t, w, max(orders_t), where)
-        return _analyse(t, w, orders_t, rpm_step, source, where, step)
+        _check_samples(t, w, where)
+        t, w, lines, note = regularise(t, w, where, lines)
+        if lines is not None:
+            where = (lambda i: f"line {int(lines[i])}")
+        omap = _analyse(t, w, orders_t, rpm_step, source, where, step)
+        return dataclasses.replace(omap, notices=((note,) if note else ()) + omap.notices)
 
     @classmethod
     def from_csv(cls, path: str | os.PathLike, orders: Any = DEFAULT_ORDERS,
                  rpm_step: float = 100.0, label: str | None = None, *,
                  progress: Callable[[int, int], Any] | None = None,
                  cancel: Callable[[], bool] | None = None,
-                 max_rows: int | None = None) -> "OrderMap":
-        """Order analysis of a CSV file with columns ``time_s`` and ``speed_rpm``; ``label``
-        names the file in messages and in :attr:`source` (default: its name).  ``progress``
-        and ``cancel`` as in :meth:`from_arrays` (reading is the first tenth); ``max_rows``
-        as in :func:`read_speed_csv`."""
+                 max_rows: int | None = None, time_column: str | None = None,
+                 speed_column: str | None = None, speed_unit: str | None = None,
+                 pulse_column: str | None = None, pulses_per_rev: int | None = None,
+                 from_s: float | None = None, to_s: float | None = None) -> "OrderMap":
+        """Order analysis of a measurement file, its layout and columns sniffed
+        (:mod:`rattle_core.measure.read`); ``label`` names the file in messages and in
+        :attr:`source` (default: its name).  ``progress`` and ``cancel`` as in
+        :meth:`from_arrays` (reading is the first tenth); ``max_rows`` as in
+        :func:`read_speed_csv`.
+
+        ``time_column``, ``speed_column`` (header names) and ``speed_unit`` (``rpm``, ``rad/s``,
+        ``Hz``) override what is recognised; ``pulse_column`` and ``pulses_per_rev`` take the
+        speed from tachometer pulses (:mod:`rattle_core.measure.pulses`); ``from_s`` and
+        ``to_s`` [s, the file's time] analyse part of the file.  What was read is
+        :attr:`detected`."""
         label = Path(path).name if label is None else label
         step = _Steps(progress, cancel)
         try:
@@ -206,12 +238,40 @@ class OrderMap:
         except ValueError as exc:
             raise ValueError(f"{label}, {exc}") from None
         step(0.0)
-        t, w, lines = read_speed_csv(path, label, max_rows)
+        meas = read_measurement(path, label, max_rows, time_column=time_column,
+                                speed_column=speed_column, speed_unit=speed_unit,
+                                pulse_column=pulse_column, pulses_per_rev=pulses_per_rev,
+                                from_s=from_s, to_s=to_s)
         step(0.1)
+        return cls._from_measurement(meas, orders, rpm_step, step.within(0.1, 1.0))
+
+    @classmethod
+    def from_measurement(cls, meas: Any, orders: Any = DEFAULT_ORDERS, rpm_step: float = 100.0,
+                         *, progress: Callable[[int, int], Any] | None = None,
+                         cancel: Callable[[], bool] | None = None) -> "OrderMap":
+        """Order analysis of a :class:`rattle_core.measure.measurement.Measurement` (a file
+        read by :func:`~rattle_core.measure.measurement.read_measurement`)."""
+        return cls._from_measurement(meas, orders, rpm_step, _Steps(progress, cancel))
+
+    @classmethod
+    def _from_measurement(cls, meas: Any, orders: Any, rpm_step: float, step: "_Steps"
+                          ) -> "OrderMap":
+        label = meas.detected.source
         try:
-            return cls._from_arrays(t, w, orders, rpm_step, label, lines, step.within(0.1, 1.0))
+            omap = cls._from_arrays(meas.time_s, meas.speed_rpm, orders, rpm_step, label,
+                                    meas.lines, step, meas.max_order)
         except ValueError as exc:
             raise ValueError(f"{label}, {exc}") from None
+        det = meas.detected
+        notices = omap.notices
+        if notices and notices[0].startswith("resampled"):
+            det = dataclasses.replace(det, resampling=notices[0])
+            notices = notices[1:]
+        if meas.pulses_per_rev:  # the speed is a pulse-long average: its orders are divided out
+            gain = averaging_gain(omap.orders, meas.pulses_per_rev)[None, :]
+            omap = dataclasses.replace(omap, amplitude_rad=omap.amplitude_rad / gain,
+                                       accel_rad_s2=omap.accel_rad_s2 / gain)
+        return dataclasses.replace(omap, detected=det, notices=notices)
 
     @classmethod
     def from_table(cls, table: Any, source: str = "table") -> "OrderMap":
@@ -249,15 +309,16 @@ class OrderMap:
 
     @classmethod
     def read(cls, path: str | os.PathLike, orders: Any = DEFAULT_ORDERS,
-             rpm_step: float = 100.0) -> "OrderMap":
-        """A map from a file: a measurement (``time_s``, ``speed_rpm``: analysed with ``orders``
-        and ``rpm_step``) or an order table written by ``rattle orders`` (read as it is)."""
+             rpm_step: float = 100.0, **options: Any) -> "OrderMap":
+        """A map from a file: a measurement (analysed with ``orders``, ``rpm_step`` and the
+        reading ``options`` of :meth:`from_csv`) or an order table written by ``rattle orders``
+        (read as it is)."""
         header = _header(path)
         if set(TABLE_COLUMNS) <= set(header):
             import pandas as pd
             _check_size(path)
             return cls.from_table(pd.read_csv(path, comment="#"), source=Path(path).name)
-        return cls.from_csv(path, orders, rpm_step)
+        return cls.from_csv(path, orders, rpm_step, **options)
 
     # ----- reading --------------------------------------------------------------------
     @property
@@ -279,13 +340,47 @@ class OrderMap:
         if np.any(bad):
             raise ValueError(f"rpm = {float(r[bad][0])!r} is outside the measured range "
                              f"[{lo:g}, {hi:g}] of the order map ({self.source})")
+        self.check_covers([self.orders[c] for c in cols], r)
         amp = np.empty((r.size, len(cols)))
         ph = np.empty((r.size, len(cols)))
         for j, c in enumerate(cols):
-            amp[:, j] = np.interp(r, self.rpm, self.amplitude_rad[:, c])
-            unwrapped = np.rad2deg(np.unwrap(np.deg2rad(self.phase_deg[:, c])))
-            ph[:, j] = _wrap(np.interp(r, self.rpm, unwrapped))
+            ok = np.isfinite(self.amplitude_rad[:, c])
+            amp[:, j] = np.interp(r, self.rpm[ok], self.amplitude_rad[ok, c])
+            unwrapped = np.rad2deg(np.unwrap(np.deg2rad(self.phase_deg[ok, c])))
+            ph[:, j] = _wrap(np.interp(r, self.rpm[ok], unwrapped))
         return amp, ph
+
+    def covered(self, order: float) -> tuple[float, float] | None:
+        """The speeds [rpm] at which ``order`` was analysed (its bins, extended by half a
+        step), or None where the sampling resolved it nowhere."""
+        c = self._columns([order])[0]
+        ok = np.flatnonzero(np.isfinite(self.amplitude_rad[:, c]))
+        if ok.size == 0:
+            return None
+        # between an analysed bin and one that is not, nothing can be interpolated
+        half = self.rpm_step / 2
+        return (float(self.rpm[ok[0]] - (half if ok[0] == 0 else 0.0)),
+                float(self.rpm[ok[-1]] + (half if ok[-1] == self.rpm.size - 1 else 0.0)))
+
+    def check_covers(self, orders: Any, rpm: Any) -> None:
+        """Raise ``ValueError`` naming the order and its analysed speed range when any of
+        ``orders`` was not analysed at one of the speeds ``rpm`` (the sampling did not resolve
+        it there); a verdict calls this before it uses the orders."""
+        r = np.atleast_1d(np.asarray(rpm, dtype=np.float64))
+        for o in np.atleast_1d(np.asarray(orders, dtype=np.float64)):
+            c = self._columns([o])[0]
+            if np.all(np.isfinite(self.amplitude_rad[:, c])):
+                continue
+            span = self.covered(o)
+            bad = np.ones(r.size, bool) if span is None else \
+                (r < span[0] - 1e-9) | (r > span[1] + 1e-9)
+            if np.any(bad):
+                avail = ("no speed" if span is None
+                         else f"{span[0]:.0f} to {span[1]:.0f} rpm only")
+                raise ValueError(f"order {o:g} is needed at {float(r[bad][0]):.0f} rpm, but the "
+                                 f"measurement ({self.source}) resolves it at {avail}: its sampling "
+                                 "is too slow for it above; choose speeds in that range, or "
+                                 "measure faster")
 
     def harmonics(self, rpm: Any, engine_order: float, n: int, scale: float = 1.0
                   ) -> tuple[np.ndarray, np.ndarray]:
@@ -337,7 +432,7 @@ def _as_column(name: str, values: Any) -> np.ndarray:
     return arr
 
 
-def _check_samples(t: np.ndarray, w: np.ndarray, max_order: float, where) -> None:
+def _check_samples(t: np.ndarray, w: np.ndarray, where) -> None:
     if t.size < 2 * MIN_SAMPLES_PER_CYCLE:
         raise ValueError(f"the measurement has {t.size} samples; at least "
                          f"{2 * MIN_SAMPLES_PER_CYCLE} are needed")
@@ -355,22 +450,12 @@ def _check_samples(t: np.ndarray, w: np.ndarray, max_order: float, where) -> Non
         i = bad[0] + 1
         raise ValueError(f"{where(i)}: time_s = {float(t[i])!r} does not increase (the sample before "
                          f"is at {float(t[i - 1])!r}); time must increase strictly")
-    step = float(np.median(dt))
-    bad = np.nonzero(dt > GAP_FACTOR * step)[0]
-    if bad.size:
-        i = bad[0] + 1
-        raise ValueError(f"{where(i)}: a gap of {dt[bad[0]]:.6g} s after time_s = {float(t[i - 1])!r} "
-                         f"(the sampling step is {step:.6g} s; steps over {GAP_FACTOR:g} times it "
-                         "are gaps)")
-    # samples per cycle of the highest order, at each sample's speed
-    per_cycle = 60.0 / (w * max_order) / np.concatenate([dt, dt[-1:]])
-    bad = np.nonzero(per_cycle < MIN_SAMPLES_PER_CYCLE)[0]
-    if bad.size:
-        i = bad[0]
-        raise ValueError(f"{where(i)}: at {w[i]:.6g} rpm the sampling gives {per_cycle[i]:.3g} "
-                         f"samples per cycle of order {max_order:g}; at least "
-                         f"{MIN_SAMPLES_PER_CYCLE} are needed (sample faster, or analyse lower "
-                         "orders)")
+
+
+def resolved_rpm(order: float, time_step: float, per_cycle: float = MIN_SAMPLES_PER_CYCLE) -> float:
+    """The highest speed [rpm] at which samples ``time_step`` apart give ``per_cycle`` samples
+    per cycle of ``order``."""
+    return 60.0 / (order * per_cycle * time_step)
 
 
 class AnalysisCancelled(Exception):
@@ -509,6 +594,7 @@ def _analyse(t: np.ndarray, w: np.ndarray, orders: tuple[float, ...], rpm_step: 
     from scipy.interpolate import CubicSpline
 
     step = step or _Steps(None, None)
+    time_step = float(np.median(np.diff(t)))
     omega = w * (2.0 * math.pi / 60.0)
     angle = cumulative_simpson(omega, x=t, initial=0.0)
     bad = np.flatnonzero(np.diff(angle) <= 0)
@@ -528,10 +614,9 @@ def _analyse(t: np.ndarray, w: np.ndarray, orders: tuple[float, ...], rpm_step: 
     win = max(1, int(round(per_rev)))
     rpm_smooth = _moving_mean(speed, win) * (60.0 / (2 * math.pi))
     bins = np.round(rpm_smooth / rpm_step).astype(np.int64)
-    del rpm_smooth
     present, bounds, by_bin = _groups(bins)
     fit_orders = sorted(set(orders) | {0.5 * m for m in range(1, int(4 * max(orders)) + 1)})
-    kept, members = [], []
+    kept, members, top_rpm = [], [], []
     for g, b in enumerate(present):
         sel = by_bin[bounds[g]:bounds[g + 1]]
         revs = sel.size / per_rev
@@ -544,6 +629,8 @@ def _analyse(t: np.ndarray, w: np.ndarray, orders: tuple[float, ...], rpm_step: 
                              "speed changes too fast for rpm_step; choose a wider rpm_step)")
         kept.append(int(b))
         members.append(sel)
+        top_rpm.append(float(rpm_smooth[sel].max()))
+    del rpm_smooth
     if not kept:
         raise ValueError(f"the measurement covers fewer than {MIN_REVOLUTIONS} revolutions in "
                          f"every {rpm_step:g} rpm bin; measure longer or choose a wider rpm_step")
@@ -554,6 +641,12 @@ def _analyse(t: np.ndarray, w: np.ndarray, orders: tuple[float, ...], rpm_step: 
     lower = np.maximum(upper - 1, 0)
     owner = np.where(np.abs(kept_arr[lower] - bins) <= np.abs(kept_arr[upper] - bins), lower, upper)
     del bins, upper, lower
+    # per bin: the orders fitted (any the sampling resolves, asked for or not) and those
+    # reported (at least MIN_SAMPLES_PER_CYCLE samples per cycle at the bin's top speed)
+    fit_sets = [[o for o in fit_orders if top <= resolved_rpm(o, time_step, NUISANCE_PER_CYCLE)]
+                for top in top_rpm]
+    fit_sets = [fs if fs else fit_orders[:1] for fs in fit_sets]
+    bin_harmonics = [_Harmonics(fs) for fs in fit_sets]
     harmonics = _Harmonics(fit_orders)
     fitted = sum(sel.size for sel in members)
     work = 2 * (2 * fitted + n)
@@ -564,8 +657,13 @@ def _analyse(t: np.ndarray, w: np.ndarray, orders: tuple[float, ...], rpm_step: 
         step(0.2 + 0.8 * done[0] / work)
     psi = grid
     for _ in range(2):
-        fits = [_fit_bin(grid[sel], psi[sel], speed[sel], fit_orders, harmonics, advance)
-                for sel in members]
+        fits = []
+        for sel, fs, bh in zip(members, fit_sets, bin_harmonics):
+            r, a_fs, p_fs = _fit_bin(grid[sel], psi[sel], speed[sel], fs, bh, advance)
+            a_all, p_all = np.zeros(len(fit_orders)), np.zeros(len(fit_orders))
+            cols = [fit_orders.index(o) for o in fs]
+            a_all[cols], p_all[cols] = a_fs, p_fs
+            fits.append((r, a_all, p_all))
         # the fluctuation θ(A) the fits describe; ψ = A − θ(A) + θ(0) is the mean angle
         amp = np.array([f[1] for f in fits])
         ph = np.deg2rad(np.array([f[2] for f in fits]))
@@ -583,9 +681,32 @@ def _analyse(t: np.ndarray, w: np.ndarray, orders: tuple[float, ...], rpm_step: 
     amp = np.array([f[1][idx] for f in fits])
     phase = _wrap(np.array([f[2][idx] for f in fits]))
     k = np.asarray(orders)
+    top = np.asarray(top_rpm)
+    notices = []
+    for j, o in enumerate(orders):
+        limit = resolved_rpm(o, time_step)
+        out = top > limit
+        if not np.any(out):
+            continue
+        amp[out, j] = np.nan
+        phase[out, j] = np.nan
+        if np.all(out):
+            notices.append(f"order {o:g} is not analysed at any speed: the sampling "
+                           f"({1 / time_step:.6g} Hz) gives fewer than {MIN_SAMPLES_PER_CYCLE} "
+                           f"samples per cycle of it above {limit:.0f} rpm (NaN)")
+        else:
+            notices.append(f"order {o:g} is analysed from {rpm[~out][0]:.0f} to "
+                           f"{rpm[~out][-1]:.0f} rpm only: the sampling ({1 / time_step:.6g} Hz) "
+                           f"gives fewer than {MIN_SAMPLES_PER_CYCLE} samples per cycle of it above "
+                           f"{limit:.0f} rpm; left out (NaN) from {rpm[out][0]:.0f} to "
+                           f"{rpm[out][-1]:.0f} rpm")
+    if notices and np.all(np.isnan(amp)):
+        raise ValueError(f"the sampling ({1 / time_step:.6g} Hz) gives fewer than "
+                         f"{MIN_SAMPLES_PER_CYCLE} samples per cycle of every order asked for, at "
+                         "every speed; sample faster, or analyse lower orders")
     accel = amp * (k[None, :] * rpm[:, None] * 2 * math.pi / 60.0) ** 2
     return OrderMap(rpm=rpm, orders=k.astype(np.float64), amplitude_rad=amp, accel_rad_s2=accel,
-                    phase_deg=phase, rpm_step=rpm_step, source=source)
+                    phase_deg=phase, rpm_step=rpm_step, source=source, notices=tuple(notices))
 
 
 def _stretches(a: np.ndarray) -> np.ndarray:

@@ -216,6 +216,26 @@ def orders_png(path: Path | str, order_map: Any, title: str) -> None:
     fig.savefig(path)
 
 
+def campbell_png(path: Path | str, data: Any, title: str) -> None:
+    """A Campbell diagram: the order spectrum (dB re 1 rad) as colours, orders across and rpm
+    up, the analysed orders marked by dashed lines, so that one sees whether they dominate."""
+    fig = agg_figure((8.0, 6.0), dpi=110)
+    ax = fig.subplots()
+    level = data.level_db
+    top = float(np.nanmax(level)) if np.isfinite(level).any() else 0.0
+    mesh = ax.pcolormesh(data.orders, data.rpm, level, shading="nearest", cmap="viridis",
+                         vmin=top - 60.0, vmax=top)
+    fig.colorbar(mesh, ax=ax, label="angular amplitude [dB re 1 rad]")
+    for k in data.analysed_orders:
+        ax.axvline(k, color="white", ls="--", lw=0.9)
+        ax.text(k, data.rpm[-1], f" {k:g}", color="white", va="top", fontsize=8)
+    ax.set_xlabel("engine order")
+    ax.set_ylabel("engine speed [rpm]")
+    ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path)
+
+
 def verdict_png(path: Path | str, result: Any, title: str) -> None:
     """A gearbox verdict: each gear's regime against engine speed (a strip per gear, its onset
     marked), the rattle intensity and the loudness of each gear and of the whole gearbox."""
