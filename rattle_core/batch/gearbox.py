@@ -4,13 +4,21 @@
 each chunk (all gears at a few speeds) is one task of :func:`~rattle_core.batch.executor.run_chunks`
 (here, or on Dask), with progress and cancel between chunks.  A task runs its points through
 the chunk runner (:func:`~rattle_core.batch.chunks.run_chunk`, one parallel kernel), classifies
-them, renders each gear's rattle and the whole gearbox's (the gears' sound pressures added) and
-measures their loudness (:mod:`rattle_core.analysis.loudness`); it sends back one row per gear
-and speed.  Within a chunk the speeds' sounds run on threads (``threads``, every core by
+them, renders each gear's rattle and measures its loudness and level, and the whole
+gearbox's; it sends back one row per gear and speed.  Within a chunk the speeds' sounds run on threads (``threads``, every core by
 default): rendering and loudness are compiled kernels that release the GIL, so the threads run
 at once, while the chunk's own thread finds the intervals of the points that do not repeat.
 Each speed's numbers come from its own sounds alone, so the verdict is the same, row for row,
 on any number of threads.
+
+The gears are incoherent sources, each heard through its own transfer path: their phases are
+unrelated, so their energies add, not their pressures (adding pressures lets their ringing
+cancel, and the total could be quieter than one gear).  The gearbox's ``spl_dba`` is the energy
+sum of the gears' L_Aeq; its ``spl_dba_max`` the fast-weighted maximum of the summed A-weighted
+energies ``Σ p_A,g²``; its loudness and sharpness come from the gears' third-octave band
+intensities added before the rest of ISO 532-1
+(:func:`~rattle_core.analysis.loudness.loudness_incoherent`).  Every stage after the bands
+grows with the band levels, so the gearbox is never quieter than its loudest gear.
 
 Columns of :attr:`Verdict.table` (one row per gear and speed, then one per speed with ``gear``
 = :data:`GEARBOX`, the gears together):
@@ -27,6 +35,10 @@ Columns of :attr:`Verdict.table` (one row per gear and speed, then one per speed
 ``loudness_sone``, ``sharpness_acum``
     ISO 532-1 loudness ``N5`` and DIN 45692 sharpness of the rattle's sound over the gearbox's
     ``duration_s`` (:mod:`rattle_core.analysis.loudness`); 0 for a gear in permanent contact.
+``spl_dba``, ``spl_dba_max``
+    L_Aeq over that sound and L_AFmax [dB(A)] (:func:`~rattle_core.analysis.levels.level`, the
+    same calibrated pressure at ``SAMPLE_RATE``).  A silent sound's level is −inf dB; the table
+    holds NaN.
 ``onset_rpm``
     The lowest speed of the sweep at which the gear leaves permanent contact (NaN if it never
     does; the sweep's first speed if it rattles throughout).
@@ -37,9 +49,18 @@ Columns of :attr:`Verdict.table` (one row per gear and speed, then one per speed
     (:func:`~rattle_core.batch.ensemble.statistics`, each of the point's own transient and
     recorded periods), or with ``ensemble_runs=0`` ``blocks``: one run's recorded window cut
     into :data:`BLOCKS` blocks, Student's t over the block means (the single run's uncertainty,
-    which understates a slow drift between attractors' regions).
+    which understates a slow drift between attractors' regions).  The rates and intervals are
+    those of the attractor the point's own run is on (:func:`own_attractor`); where the runs
+    end on several, ``interval`` says ``k of N runs``.
+``attractors``
+    The attractors the runs ended on, with their runs (``P 4, D 4``); empty when one.
 ``contact_ratio``
     ``J R_d max(−θ̈_drive) / (R_b C)``: the closed-form contact boundary is where it passes 1.
+``rattle_ranges``, ``share``, ``drag_Nm``, ``drag_to_quiet_Nm``, ``inertia_to_quiet_kgm2``
+    Every rattle range, the share of the gearbox's sound, the drag, and the drag or inertia
+    that keeps the gear quiet (:mod:`rattle_core.batch.verdict_actions`).
+``target_sone``, ``margin_sone``, ``target_dba``, ``margin_dba``, ``pass``
+    The target's limits, the margins and pass/fail (same module).
 ``lam, j``
     The dimensionless Λ and j of the point.
 """
