@@ -292,3 +292,28 @@ def test_new_columns_survive_the_store(run, tmp_path):
             np.testing.assert_array_equal(a, b)
         else:
             assert list(a) == list(b), c
+
+
+def test_the_drag_that_meets_a_loudness_target_is_bracketed_by_verdicts():
+    """A gear at 15 to 19 sone against a flat 11 sone target: the drag found by bisection lies
+    between 0 and the contact boundary's 0.03 N·m; with it added the gear passes at every
+    speed, with 1 mN·m less it fails somewhere; a gear that passes needs none."""
+    text = RANGES.replace("drag = {rpm = [1000, 1750, 2000, 2400, 2700, 3000], torque_Nm = "
+                          "[0.04, 0.04, 0.12, 0.12, 0.04, 0.04]}", "drag_torque_Nm = 0.05")
+    box = Gearbox.from_text(text)
+    rpm = np.arange(1000.0, 3001.0, 250.0)
+    kw = dict(transient=150, record=40, ensemble_runs=0)
+    target = Target((1000.0,), {"sone": (11.0,)})
+    res = verdict(box, rpm, target=target, **kw)
+    assert not res.gear("3rd")["pass"].any()
+    add = res.drag_for_target("3rd", tol_Nm=1e-3)
+    assert 0 < add < 0.03 * 1.001 + 1e-9
+
+    def passes(extra: float) -> bool:
+        b = box.replace(gears=(box.gears[0].replace(drag_torque_Nm=0.05 + extra),))
+        return bool(verdict(b, rpm, target=target, **kw).gear("3rd")["pass"].all())
+    assert passes(add) and not passes(add - 1e-3)
+    easy = verdict(box, rpm, target=Target((1000.0,), {"sone": (100.0,)}), **kw)
+    assert easy.drag_for_target("3rd") == 0.0
+    with pytest.raises(ValueError, match="needs a target"):
+        verdict(box, rpm, **kw).drag_for_target("3rd")

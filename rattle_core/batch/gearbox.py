@@ -154,6 +154,11 @@ class Verdict:
         """Gear names, the largest contributor to the gearbox's A-weighted energy first."""
         return _actions.ranking(self)
 
+    def drag_for_target(self, gear: str, **kw: Any) -> float:
+        """The drag [N·m] to add to ``gear`` so that it meets the target at every speed, by
+        bisection on verdicts of that gear (:mod:`rattle_core.batch.verdict_actions`)."""
+        return _actions.drag_for_target(self, gear, **kw)
+
     @property
     def summaries(self) -> dict[str, str]:
         """Per gear, the drag to add or the inertia to remove that keeps it quiet."""

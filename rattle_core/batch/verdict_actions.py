@@ -22,9 +22,19 @@ Columns added to every row (gears, then the gearbox rows, ``gear`` = ``"gearbox"
     passes it.
 ``pass``
     Whether every given margin is ≥ 0 (True when there is no target).
+
+The drag that meets the target (:func:`drag_for_target`)
+    The contact boundary's drag keeps a gear silent; a target may allow less.  The drag to add
+    (the same at every speed and temperature) so that the gear alone passes its target at every
+    speed of the verdict is found by bisection between 0 and the boundary's largest
+    ``drag_to_quiet_Nm − drag_Nm`` (at which the gear stays in contact: silent, passing), each
+    step a verdict of that gear with the verdict's own settings.  Bisection assumes that more
+    drag is never louder, which holds for the contact boundary and, in the sweeps, for the
+    rattle's loudness; the result is the upper end of the last bracket, which passes.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -128,4 +138,55 @@ def summaries(result) -> dict[str, str]:
     return out
 
 
-__all__ = ["add_columns", "gear_ranges", "ranges", "failing", "ranking", "summaries", "GEARBOX"]
+def added_drag(gear, delta_Nm: float):
+    """``gear`` with ``delta_Nm`` [N·m] more drag at every speed and temperature."""
+    d = gear.drag
+    if d.kind == "constant":
+        return gear.replace(drag_torque_Nm=d.value_Nm + delta_Nm)
+    if d.kind == "oil":
+        return gear.replace(drag=dataclasses.replace(d, bush_Nm=d.bush_Nm + delta_Nm))
+    table = np.asarray(d.torque_Nm, dtype=float) + delta_Nm
+    rows = tuple(map(tuple, table.tolist())) if d.temp_C else tuple(table.tolist())
+    return gear.replace(drag=dataclasses.replace(d, torque_Nm=rows))
+
+
+def drag_for_target(result, name: str, tol_Nm: float | None = None,
+                    max_steps: int = 12) -> float:
+    """The drag [N·m] to add to gear ``name`` so that it meets the verdict's target at every
+    speed (module docstring); 0 when it does already.  ``tol_Nm`` is the bracket's final width
+    (default 1 % of the boundary's drag to add)."""
+    from .gearbox import verdict
+    box = result.gearbox
+    if box.target is None:
+        raise ValueError("drag_for_target needs a target: give the gearbox a [target] or "
+                         "verdict(..., target=...)")
+    names = [g.name for g in box.gears]
+    if name not in names:
+        raise ValueError(f"gear {name!r:.100} is not in this gearbox; the gears are {names}")
+    rows = result.gear(name)
+    if bool(rows["pass"].all()):
+        return 0.0
+    g = names.index(name)
+    hi = float(np.nanmax(rows["drag_to_quiet_Nm"] - rows["drag_Nm"]))
+    hi = max(hi, 0.0) * 1.001 + 1e-9  # just past the boundary: permanent contact
+    tol = 0.01 * hi if tol_Nm is None else float(tol_Nm)
+    if not (math.isfinite(tol) and tol > 0):
+        raise ValueError(f"tol_Nm = {tol_Nm!r} must be a positive number of N·m")
+    st = result.settings
+    rpm = rows["rpm"].to_numpy(float)
+
+    def passes(delta: float) -> bool:
+        one = box.replace(gears=(added_drag(box.gears[g], delta),))
+        res = verdict(one, rpm, transient=st["transient"], record=st["record"],
+                      ensemble_runs=st["ensemble_runs"])
+        return bool(res.gear(name)["pass"].all())
+    lo = 0.0
+    for _ in range(max_steps):
+        if hi - lo <= tol:
+            break
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if passes(mid) else (mid, hi)
+    return hi
+
+
+__all__ = ["added_drag", "drag_for_target", "add_columns", "gear_ranges", "ranges", "failing", "ranking", "summaries", "GEARBOX"]
