@@ -56,35 +56,46 @@ EXPLORER_CSS = f"""
 LIVE: "weakref.WeakSet[Dashboard]" = weakref.WeakSet()
 
 
+def _built(view: type, **kwargs: Any) -> Any:
+    """One view, built holding :data:`HV_LOCK` (its HoloViews streams) and letting go after,
+    so that another session's redraw waits for one view of this page, not for all of them."""
+    with HV_LOCK:
+        return view(**kwargs)
+
+
 class Dashboard:
     """Everything one browser session sees (build it with :func:`app.main.create_app`)."""
 
     def __init__(self, location: Any = None, doc: Any = None, pool: Any = None):
-        with HV_LOCK:  # the views build HoloViews streams
-            self._build(location, doc, pool)
+        self._build(location, doc, pool)
         LIVE.add(self)
 
     def _build(self, location: Any, doc: Any, pool: Any) -> None:
         self.session = Session(location=location, doc=doc, pool=pool)
         s = self.state = self.session.state
         jobs = self.session.jobs
-        self.controls = Controls(state=s)
-        self.units = UnitsView(state=s)
-        self.regime = RegimeView(state=s)
-        self.pin = PinView(state=s)
-        self.noise = NoiseView(state=s, jobs=jobs)
-        self.time_history = TimeHistoryView(state=s)
-        self.section = SectionView(state=s)
-        self.motion = MotionView(state=s)
-        self.diagram = DiagramView(state=s, jobs=jobs)
-        self.continuation = ContinuationView(state=s, jobs=jobs)
-        self.sound = SoundView(state=s)
-        self.sensitivity = SensitivityView(state=s)
-        self.curve = CurveView(state=s, jobs=jobs)
-        self.maps = MapsView(state=s, jobs=jobs, settings=self.session.map_settings)
-        self.atlas = AtlasView(state=s, jobs=jobs, maps=self.maps)
-        self.gearbox = GearboxView(state=s, jobs=jobs, settings=self.session.gearbox_settings)
-        self.present = PresentView(state=s)
+        self.controls = _built(Controls, state=s)
+        self.units = _built(UnitsView, state=s)
+        self.regime = _built(RegimeView, state=s)
+        self.pin = _built(PinView, state=s)
+        self.noise = _built(NoiseView, state=s, jobs=jobs)
+        self.time_history = _built(TimeHistoryView, state=s)
+        self.section = _built(SectionView, state=s)
+        self.motion = _built(MotionView, state=s)
+        self.diagram = _built(DiagramView, state=s, jobs=jobs)
+        self.continuation = _built(ContinuationView, state=s, jobs=jobs)
+        self.sound = _built(SoundView, state=s)
+        self.sensitivity = _built(SensitivityView, state=s)
+        self.curve = _built(CurveView, state=s, jobs=jobs)
+        self.maps = _built(MapsView, state=s, jobs=jobs, settings=self.session.map_settings)
+        self.atlas = _built(AtlasView, state=s, jobs=jobs, maps=self.maps)
+        self.gearbox = _built(GearboxView, state=s, jobs=jobs, settings=self.session.gearbox_settings)
+        self.present = _built(PresentView, state=s)
+        with HV_LOCK:  # the views' panels may build HoloViews panes
+            self._lay_out()
+
+    def _lay_out(self) -> None:
+        s = self.state
         self.views = [self.controls, self.units, self.regime, self.pin, self.noise,
                       self.time_history, self.section, self.motion,
                       self.diagram, self.continuation, self.curve, self.sound, self.maps,
