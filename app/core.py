@@ -15,7 +15,7 @@ from rattle_core.analysis.continuation import (ATLAS_AXES, CONTINUATION_VERSION,
                                                 axes_supported, continue_bifurcation,
                                                 continue_orbit, find_orbit)
 from rattle_core.analysis.overlays import contact_boundary
-from rattle_core.analysis.statistics import batch_means
+from rattle_core.analysis.statistics import attractor_verdicts, batch_means
 from rattle_core.batch.ensemble import DEFAULT_LEVELS as NOISE_LEVELS
 from rattle_core.batch.ensemble import noise_sensitivity
 from rattle_core.analysis.sound import (DEFAULT_EXCITATION_HZ, DEFAULT_MODES,
@@ -69,7 +69,7 @@ __all__ = [
     "MAX_HARMONICS", "PHASE_RANGE_DEG", "R_RANGE", "V_STICK_RANGE", "check_range",
     "core_to_paper_phases", "paper_to_core_phases", "DEFAULT_EXCITATION_HZ", "DEFAULT_MODES",
     "DEFAULT_SAMPLE_RATE", "DEFAULT_TAIL", "EXCITATION_HZ_RANGE", "HousingMode", "parse_modes",
-    "synthesize", "write_wav", "physical_table", "impacts_frame", "batch_means",
+    "synthesize", "write_wav", "physical_table", "impacts_frame", "batch_means", "attractor_verdicts",
     "NOISE_DEFAULT", "NOISE_RANGE", "NOISE_LEVELS", "noise_sensitivity",
     "ATLAS_AXES", "ContinuationError", "atlas", "axes_supported", "continue_bifurcation",
     "CODIM2_MARKERS", "CURVE_STYLES",

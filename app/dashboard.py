@@ -5,6 +5,11 @@ background jobs) and one ``pn.viewable.Viewer`` per part of the page, each given
 (and, if it runs background work, the session's jobs). The views never refer to each other:
 they meet only in the state. :meth:`Dashboard.destroy` runs when the session closes.
 
+:class:`Shell` is the page before its views exist: the template, its header, sidebar and tabs
+empty, and a "computing…" note in the main area. The server sends it at once and builds the
+dashboard into it once the browser has connected (:func:`app.main.create_app`), so a page shows
+its layout within a second, and a client that has gone costs no build.
+
 Presentation mode (``state.present``) keeps every view and model: the header's button marks
 the page (the template's stylesheet hides the sidebar), the Explorer's stylesheet lays the time
 history and the section side by side in the height the window leaves below the header, what
@@ -13,6 +18,7 @@ holds them stretches, and the parts a lecture does not need are hidden.
 from __future__ import annotations
 
 import weakref
+from html import escape
 from typing import Any
 
 import panel as pn
@@ -54,6 +60,38 @@ EXPLORER_CSS = f"""
 """
 #: Every live dashboard (weakly held): a closed session's must disappear from here.
 LIVE: "weakref.WeakSet[Dashboard]" = weakref.WeakSet()
+#: What the main area shows until the dashboard is built into it.
+SKELETON = ('<div class="page-skeleton" style="padding: 24px 12px; font-size: 18px; '
+            'color: #555;">computing… the first run and the plots are on their way</div>')
+
+
+class Abandoned(Exception):
+    """The page's client went away while its dashboard was being built."""
+
+
+class Shell:
+    """The page's frame, cheap to build and send: the template with its header row, sidebar
+    column and main tabs empty, and :data:`SKELETON` where the notes go (the roots stay those
+    the template's stylesheet keys on: the header row, the tabs)."""
+
+    def __init__(self) -> None:
+        self.skeleton = pn.pane.HTML(SKELETON, css_classes=["page-skeleton-pane"],
+                                     sizing_mode="stretch_width", margin=0)
+        self.notes = pn.Column(self.skeleton, sizing_mode="stretch_width", margin=0)
+        self.tabs = pn.Tabs(dynamic=True, sizing_mode="stretch_width", css_classes=["main-tabs"],
+                            stylesheets=[PANE_CSS])
+        self.sidebar = pn.Column(sizing_mode="stretch_width", margin=0)
+        self.header = pn.Row(margin=0)
+        self.layout = pn.template.BootstrapTemplate(
+            title="Rattle Explorer: gear rattle, exactly", sidebar=[self.sidebar],
+            sidebar_width=SIDEBAR_WIDTH, main=[self.notes, self.tabs], header=[self.header],
+            header_background="#2c3e50")
+        self.layout.config.raw_css.append(PAGE_CSS)
+
+    def fail(self, text: str) -> None:
+        """The dashboard could not be built: say so where "computing…" was."""
+        self.skeleton.object = (f'<div class="page-skeleton" data-kind="failed" style="padding: '
+                                f'24px 12px; font-size: 18px; color: #a00;">{escape(text)}</div>')
 
 
 def _built(view: type, **kwargs: Any) -> Any:
@@ -64,14 +102,30 @@ def _built(view: type, **kwargs: Any) -> Any:
 
 
 class Dashboard:
-    """Everything one browser session sees (build it with :func:`app.main.create_app`)."""
+    """Everything one browser session sees (build it with :func:`app.main.create_app`).
 
-    def __init__(self, location: Any = None, doc: Any = None, pool: Any = None):
+    ``shell``: the page already sent, to build into (a new one by default); ``alive``: asked
+    before each heavy step, and the build is abandoned (:class:`Abandoned`, the session
+    closed) once it answers no.
+    """
+
+    def __init__(self, location: Any = None, doc: Any = None, pool: Any = None,
+                 shell: Shell | None = None, alive: Any = None):
+        self.shell = shell if shell is not None else Shell()
+        self._alive = alive or (lambda: True)
         self._build(location, doc, pool)
         LIVE.add(self)
 
+    def _check_alive(self) -> None:
+        if not self._alive():
+            if getattr(self, "session", None) is not None:
+                self.session.destroy()
+            raise Abandoned("the page's client has gone")
+
     def _build(self, location: Any, doc: Any, pool: Any) -> None:
+        self._check_alive()
         self.session = Session(location=location, doc=doc, pool=pool)
+        self._check_alive()  # the first run is done: the views and their plots come next
         s = self.state = self.session.state
         jobs = self.session.jobs
         self.controls = _built(Controls, state=s)
@@ -90,12 +144,14 @@ class Dashboard:
         self.maps = _built(MapsView, state=s, jobs=jobs, settings=self.session.map_settings)
         self.atlas = _built(AtlasView, state=s, jobs=jobs, maps=self.maps)
         self.gearbox = _built(GearboxView, state=s, jobs=jobs, settings=self.session.gearbox_settings)
-        self.present = _built(PresentView, state=s)
+        self.present = _built(PresentView, state=s, header=self.shell.header)
         with HV_LOCK:  # the views' panels may build HoloViews panes
-            self._lay_out()
+            maps_tab = self._arrange()
+        # each plot's models are built under the lock, one plot at a time (HoloViewsPane)
+        self._lay_out(maps_tab)
 
-    def _lay_out(self) -> None:
-        s = self.state
+    def _arrange(self) -> Any:
+        """The views in their rows and columns; returns the Maps tab's column."""
         self.views = [self.controls, self.units, self.regime, self.pin, self.noise,
                       self.time_history, self.section, self.motion,
                       self.diagram, self.continuation, self.curve, self.sound, self.maps,
@@ -118,23 +174,26 @@ class Dashboard:
         self.explorer = pn.Column(
             self.regime, pin, noise, th_cell, table, motion, section_row, sensitivity, sound,
             sizing_mode="stretch_width", css_classes=["explorer"], stylesheets=[EXPLORER_CSS])
-        maps_tab = pn.Column(self.maps, self.atlas, sizing_mode="stretch_width")
-        self.tabs = pn.Tabs(("Explorer", self.explorer), ("Maps", maps_tab),
-                            ("Gearbox", self.gearbox), dynamic=True, active=TABS.index(s.tab),
-                            sizing_mode="stretch_width", css_classes=["main-tabs"],
-                            stylesheets=[PANE_CSS])
+        return pn.Column(self.maps, self.atlas, sizing_mode="stretch_width")
+
+    def _lay_out(self, maps_tab: Any) -> None:
+        """The arranged views put in the page already sent (every view's models are built)."""
+        s = self.state
+        self._check_alive()  # what follows puts every view's models in the page
+        shell = self.shell
+        self.tabs = shell.tabs
+        self.tabs.extend([("Explorer", self.explorer), ("Maps", maps_tab),
+                          ("Gearbox", self.gearbox)])
+        self.tabs.active = TABS.index(s.tab)
         # the active tab is the state's ``tab`` (a URL key): a shared link opens on its tab
         self.tabs.param.watch(self._on_tab, "active")
         s.param.watch(self._on_state_tab, "tab")
         if s.tab == "maps":
-            self.maps.open_link()
-        self.layout = pn.template.BootstrapTemplate(
-            title="Rattle Explorer: gear rattle, exactly",
-            sidebar=[self.controls, self.units], sidebar_width=SIDEBAR_WIDTH,
-            main=[message(s, "url"), message(s, "tab"), message(s, "global"), self.tabs],
-            header=[self.present],
-            header_background="#2c3e50")
-        self.layout.config.raw_css.append(PAGE_CSS)
+            with HV_LOCK:
+                self.maps.open_link()
+        self.layout = shell.layout
+        shell.sidebar[:] = [self.controls, self.units]
+        shell.notes[:] = [message(s, "url"), message(s, "tab"), message(s, "global")]
         s.param.watch(self._present, "present")
         self._present()
 

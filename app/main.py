@@ -9,6 +9,10 @@ Also a Panel script: ``panel serve app/main.py`` builds one dashboard per sessio
   compiled kernels, datashader's, the shipped diagrams, the job pool's worker processes), so
   the first page is as fast as any; :func:`serve` prints the address only once the port
   answers.
+* A page is sent at once, as a frame with a "computing…" note (:class:`~app.dashboard.Shell`);
+  its dashboard is built into it once the browser has connected (``pn.state.onload``), and
+  not at all for a client that has gone: a request nobody reads (a readiness poll that gave
+  up) costs a frame, not a dashboard.
 * A closed session is freed: its jobs are cancelled and its dashboard dropped
   (``pn.state.on_session_destroyed``), and unused sessions are reaped within seconds; no
   timer of the server holds a copy of a session's context (:func:`_start_panel_timers`).
@@ -38,11 +42,11 @@ if __package__ in (None, ""):  # run as a script by `panel serve app/main.py`
     sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     from app import query
     from app.work import jobs, map_plan, tasks
-    from app.dashboard import Dashboard
+    from app.dashboard import Abandoned, Dashboard, Shell
 else:  # imported as a package: `app` in a checkout, `rattle_app` when installed
     from . import query
     from .work import jobs, map_plan, tasks
-    from .dashboard import Dashboard
+    from .dashboard import Abandoned, Dashboard, Shell
 
 log = logging.getLogger("app")
 
@@ -50,6 +54,12 @@ _warm_lock = threading.Lock()
 _warm = False
 #: Seconds after which a session whose page is closed is destroyed, and how often to look.
 UNUSED_SESSION_S = 5
+#: Largest websocket message the server takes [bytes]. An upload travels base64-encoded in one
+#: message, 4/3 of its size: the 20 MB measurement limit needs 26.7 MB, over Bokeh's default
+#: 20 MiB. At 64 MiB a file of up to 48 MB reaches the server and is refused with a message
+#: naming the limit, instead of cutting the page's connection. (``panel serve app/main.py``
+#: takes the same as ``--websocket-max-message-size``.)
+WEBSOCKET_MAX_BYTES = 64 * 2**20
 
 
 def _recompute_only_when_needed() -> None:
@@ -121,19 +131,57 @@ def warm_up(pool: bool = True) -> None:
         _warm = True
 
 
+def client_gone(doc) -> bool:
+    """Whether the browser of ``doc``'s session has gone: the session was destroyed, or no
+    websocket is open on it (a page without a server session is never gone)."""
+    ctx = getattr(doc, "session_context", None)
+    if ctx is None:
+        return False
+    if getattr(ctx, "destroyed", False):
+        return True
+    session = getattr(ctx, "_session", None)
+    return session is not None and getattr(session, "connection_count", 1) == 0
+
+
 def create_app() -> pn.template.BootstrapTemplate:
-    """The servable dashboard for one session (its own state, views and background jobs)."""
+    """The servable dashboard for one session (its own state, views and background jobs).
+
+    In a server session the frame (:class:`~app.dashboard.Shell`) is returned at once and the
+    dashboard built into it when the browser has connected, unless it has gone by then or
+    goes while the build runs (then the build stops where it is and frees what it made).
+    """
     configure()
     warm_up()
-    dash = Dashboard(location=pn.state.location, doc=pn.state.curdoc)
-    if pn.state.curdoc is not None and pn.state.curdoc.session_context is not None:
-        def destroyed(session_context) -> None:
-            try:
+    doc, location = pn.state.curdoc, pn.state.location
+    shell = Shell()
+    if doc is None or doc.session_context is None:
+        Dashboard(location=location, doc=doc, shell=shell)
+        return shell.layout
+    built: list[Dashboard] = []
+
+    def build() -> None:
+        if client_gone(doc):
+            log.info("the page's client has gone: its dashboard is not built")
+            return
+        try:
+            built.append(Dashboard(location=location, doc=doc, shell=shell,
+                                   alive=lambda: not client_gone(doc)))
+        except Abandoned:
+            log.info("the page's client went away: its dashboard's build was abandoned")
+        except Exception as exc:  # the page says so instead of computing for ever
+            log.exception("building a page failed")
+            shell.fail(f"The page could not be built ({type(exc).__name__}: {exc}). "
+                       "Reload it; if it fails again, the server's log says why.")
+
+    def destroyed(session_context) -> None:
+        try:
+            for dash in built:
                 dash.destroy()
-            except Exception:
-                log.exception("closing a session failed")
-        pn.state.on_session_destroyed(destroyed)
-    return dash.layout
+        except Exception:
+            log.exception("closing a session failed")
+    pn.state.on_session_destroyed(destroyed)
+    pn.state.onload(build)
+    return shell.layout
 
 
 def _answers(address: str, port: int) -> bool:
@@ -262,6 +310,7 @@ def serve(port: int = 5006, address: str = "localhost", show: bool = False,
         origins = kwargs.pop("websocket_origin", None) or [f"{address}:{port}", f"localhost:{port}",
                                                            f"127.0.0.1:{port}"]
         kwargs.setdefault("check_unused_sessions", UNUSED_SESSION_S * 1000)
+        kwargs.setdefault("websocket_max_message_size", WEBSOCKET_MAX_BYTES)
         kwargs.setdefault("unused_session_lifetime", UNUSED_SESSION_S * 1000)
         server = None
         try:

@@ -30,6 +30,7 @@ import param
 from rattle_core import SolverError
 
 from .physical import physical_of, run_physical
+from .query import Huge, number
 from .state import PHYSICAL_KEYS, RUN_KEYS, ExplorerState, Run, rattle_params, rejection
 from .ui.labels import short
 from .work.page_run import PageRun, run_kwargs
@@ -64,11 +65,17 @@ def _value(name: str, text: str) -> Any:
     if name == "x0" and text == "":
         return None
     if isinstance(p, param.Number):
-        try:
-            value = float(text)
-        except ValueError:
-            return text
-        return int(value) if isinstance(p, param.Integer) and value.is_integer() else value
+        value = number(text)  # a number of any length, a Huge beyond a float's range
+        if value is None:
+            try:
+                value = float(text)  # also 'nan', 'inf': refused with the state's message
+            except ValueError:
+                return text
+        if isinstance(value, Huge):
+            return value
+        if isinstance(p, param.Integer):
+            return int(value) if value.is_integer() else value
+        return float(value)
     return text
 
 
@@ -76,7 +83,7 @@ def _refusal(name: str, value: Any, exc: Exception) -> str:
     """Why a pin's value of ``name`` is refused: the state's own words, without 'Kept …'."""
     p = ExplorerState.param[name]
     if isinstance(p, (param.Number, param.Selector)):
-        return rejection(ExplorerState, name, value).rsplit(" Kept ", 1)[0]
+        return rejection(ExplorerState, name, value).rsplit(" Kept ", 1)[0].rstrip(".")
     return f"{p.label or name}: {exc}"
 
 

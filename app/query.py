@@ -8,6 +8,11 @@ link used to turn the page into a server error.  Here:
 * :func:`parse_query` is Panel's parser with every value checked on its own: a value longer
   than :data:`MAX_VALUE` characters, or one the parser cannot read, is left out instead of
   failing the whole query;
+* a number written in decimal (``1000…0``, ``-2.5``, ``1e400``) is read by :func:`number`,
+  whatever its length: one beyond a float's range becomes a :class:`Huge`, which every
+  numeric parameter refuses by its bounds and which prints shortened, so the message beside
+  the control names the number as written and the allowed range (an ``int`` of 310 digits
+  used to overflow the float conversion of that message, leaving the page empty);
 * :func:`readable` splits a query string into the part that can be read and the keys that
   cannot, so the session can say which values it dropped;
 * :func:`install` makes Panel's location use :func:`parse_query` (once per process).
@@ -15,16 +20,66 @@ link used to turn the page into a server error.  Here:
 from __future__ import annotations
 
 import logging
+import math
+import re
 import urllib.parse
 from typing import Any
 
-#: Longest query value read, in characters (the longest real one, 32 harmonics, is ~450).
+#: Longest query value read, in characters (the longest real one, 32 harmonics, is ~450);
+#: numbers are read whatever their length (:func:`number`).
 MAX_VALUE = 2000
+#: A number as a link writes it: sign, digits, an optional fraction and exponent.
+_NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+#: How much of a huge number's text a message shows, either side of the cut.
+_SHOWN = 10
+
+
+class Huge(float):
+    """A finite number written in a link that no float holds: ``±inf`` as a float, so every
+    bound refuses it, and its text kept: ``str`` gives it whole (a link re-encoded from the
+    parsed query keeps it), ``repr`` shortened (for a message)."""
+
+    text: str
+
+    def __new__(cls, text: str) -> "Huge":
+        self = super().__new__(cls, math.copysign(math.inf, -1.0 if text.startswith("-") else 1.0))
+        self.text = text
+        return self
+
+    def __repr__(self) -> str:
+        t = self.text
+        if len(t) <= 2 * _SHOWN + 3:
+            return t
+        return f"{t[:_SHOWN]}…{t[-_SHOWN // 2:]} ({len(t)} characters)"
+
+    def __str__(self) -> str:  # what a link re-encoded from the parsed query carries
+        return self.text
+
+    def __reduce__(self):
+        return Huge, (self.text,)
+
+
+def number(text: str) -> int | float | None:
+    """``text`` as the number it writes (an ``int`` for whole digits, a :class:`Huge` beyond a
+    float's range), or None if it is no decimal number. Any length: ``float()`` reads digits in
+    linear time and never overflows, and ``int()`` is called only on at most 309 digits."""
+    if not _NUMBER.fullmatch(text):
+        return None
+    value = float(text)
+    if math.isinf(value):
+        return Huge(text)
+    if re.fullmatch(r"-?[0-9]+", text):  # Panel's rule: whole digits are an int
+        sign, digits = ("-", text[1:]) if text.startswith("-") else ("", text)
+        return int(sign + (digits.lstrip("0") or "0"))
+    return value
 
 
 def _parse_one(key: str, value: str) -> tuple[bool, Any]:
     """``(True, parsed)`` if Panel's parser reads ``value``, else ``(False, why)``."""
     from panel.util import parse_query as panel_parse
+    read = number(value)
+    if read is not None:
+        return True, read
     if len(value) > MAX_VALUE:
         return False, f"{len(value)} characters, more than {MAX_VALUE}"
     logger = logging.getLogger("panel.util")

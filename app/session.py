@@ -275,6 +275,10 @@ class Session:
                     location.update_query(**{keys[n]: _serialize(obj, n) for n in rejected})
             return apply
 
+        # Panel's update_query reads the whole link back as Python values and writes them out
+        # again, so one slider move turned every present=true into present=True: keep the text
+        # of the keys it does not change
+        location.update_query = lambda **values: _update_query_as_written(location, values)
         clean, unreadable = readable(location.search)
         pinless = drop_bad_pin(clean, self.state)
         if unreadable or pinless != clean:  # before Panel reads the link: such a value would fail the whole page
@@ -393,6 +397,15 @@ class Session:
         with param.parameterized.discard_events(self.state):  # no view redraws a closed page
             self.state.result = None
             self.state.pinned_result = None
+
+
+def _update_query_as_written(location: Any, values: dict[str, Any]) -> None:
+    """Set ``values`` (URL text, or values JSON writes) in ``location``'s query; the other
+    keys keep their text as it is."""
+    import json
+    query = dict(urllib.parse.parse_qsl((location.search or "")[1:], keep_blank_values=True))
+    query.update({k: v if isinstance(v, str) else json.dumps(v) for k, v in values.items()})
+    location.search = "?" + urllib.parse.urlencode(query) if query else ""
 
 
 def _serialize(obj: param.Parameterized, name: str) -> str:

@@ -110,6 +110,21 @@ def distinct_outputs(*paths: Path | None) -> None:
         seen[key] = p
 
 
+def check_cache_dir() -> Path:
+    """The disk cache's directory, refused when it, or a folder above it, is something other
+    than a directory (``RATTLE_CACHE_DIR`` naming a file): every write to it would fail."""
+    from rattle_core.store.cache import cache_dir
+    folder = cache_dir()
+    source = "RATTLE_CACHE_DIR" if os.environ.get("RATTLE_CACHE_DIR") else "the cache directory"
+    for p in (folder, *folder.parents):
+        if p.exists() or p.is_symlink():
+            if not p.is_dir():
+                where = "" if p == folder else f" (its parent {str(p)!r})"
+                raise CLIError(f"{source} {str(folder)!r}{where} is not a directory")
+            break
+    return folder
+
+
 def check_output_dir(path_text: str, option: str) -> Path:
     """An output directory, checked before any work: not empty, not a file, and writable (it
     may be new, inside a directory that exists)."""

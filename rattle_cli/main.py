@@ -13,7 +13,7 @@ import threading
 from typing import Any, Callable, Sequence
 
 # nothing heavy at import: the libraries load inside main(), where a Ctrl-C is handled
-from .common import CLIError, Parser
+from .common import CLIError, Parser, check_cache_dir
 
 PROG = "rattle"
 
@@ -47,9 +47,12 @@ def build_parser() -> argparse.ArgumentParser:
         ver = version("rattle-explorer")
     except Exception:  # a checkout that was never installed has no metadata
         ver = "unknown"
-    parser.add_argument("--version", action="version", version=f"%(prog)s {ver}")
+    # a flag rather than argparse's version action, which prints and exits at once and so
+    # would let anything after it pass unread
+    parser.add_argument("--version", action="store_true",
+                        help=f"print the version ({PROG} {ver}) and exit; takes no other argument")
+    parser.set_defaults(version_text=f"{PROG} {ver}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
-    sub.required = True
     for command in COMMANDS:
         command.add_parser(sub)
     return parser
@@ -121,9 +124,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
-        if args.command in ("sweep", "serve", "cache"):  # they use the disk cache
+        if args.version:
+            if args.command is not None:
+                raise CLIError(f"--version takes no other argument; got the command "
+                               f"{args.command!r} as well")
+            print(args.version_text)
+            return 0
+        if args.command is None:
+            parser.error("the following arguments are required: COMMAND")
+        if args.command in ("sweep", "serve", "cache", "gearbox"):  # they use the disk cache
             from rattle_core.store.cache import size_limit
             size_limit()
+            check_cache_dir()
         if args.command == "serve":  # the server handles Ctrl-C itself, on the main thread
             return int(args.func(args) or 0)
         return int(_interruptible(args.func, args) or 0)

@@ -11,8 +11,6 @@ from __future__ import annotations
 import argparse
 from typing import Callable, Sequence
 
-from rattle_core import RattleParams, units
-
 from .common import CLIError
 
 MODEL_HELP = """\
@@ -170,6 +168,7 @@ def build_params(args: argparse.Namespace):
 
 
 def _build(args: argparse.Namespace):
+    from rattle_core import RattleParams
     r = 0.65 if args.r is None else args.r
     v_stick = 1e-6 if args.v_stick is None else args.v_stick
     physical = _given(args, _PHYSICAL_DESTS)
@@ -208,6 +207,7 @@ def _build(args: argparse.Namespace):
 
 
 def _build_physical(args: argparse.Namespace, r: float, v_stick: float):
+    from rattle_core import units
     if args.theta_amp is not None and args.alpha_amp is not None:
         raise CLIError("give --theta-amp (displacement) or --alpha-amp (acceleration), not both")
     if args.theta_phase is not None and args.alpha_amp is not None:

@@ -10,7 +10,8 @@
 * ``dashboard_server`` serves the real dashboard once per test session on a free port and
   records every log line, so tests can assert that the server printed no traceback.
 * The run has a disk cache of its own, empty at the start, so no test is served a result that
-  an earlier run left (the worker processes inherit it).
+  an earlier run left, and a config directory of its own for the cache's signing key (the
+  worker processes inherit both).
 """
 from __future__ import annotations
 
@@ -48,14 +49,19 @@ def pytest_configure(config):
     check what those commands do with it.
     """
     os.environ["RATTLE_CACHE_DIR"] = tempfile.mkdtemp(prefix="rattle-test-cache-")
+    # the cache's signing key too: made in a directory of the run's own, never the user's
+    os.environ["RATTLE_CONFIG_DIR"] = tempfile.mkdtemp(prefix="rattle-test-config-")
+    os.environ.pop("RATTLE_CACHE_KEY", None)
     if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
         signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def pytest_unconfigure(config):
-    path = os.environ.get("RATTLE_CACHE_DIR", "")
-    if os.path.basename(path).startswith("rattle-test-cache-"):
-        shutil.rmtree(path, ignore_errors=True)
+    for name, prefix in (("RATTLE_CACHE_DIR", "rattle-test-cache-"),
+                         ("RATTLE_CONFIG_DIR", "rattle-test-config-")):
+        path = os.environ.get(name, "")
+        if os.path.basename(path).startswith(prefix):
+            shutil.rmtree(path, ignore_errors=True)
 
 
 def pytest_collection_modifyitems(config, items):

@@ -444,3 +444,111 @@ def classify_reference(impulse, flank, strobe_x, strobe_v, periods, stick_time, 
             "sticking": ("" if stick_fraction == 0 else
                          "chaos-through-sticking" if rounding else "stick-locked"),
             "loop_amplification": float(loop_amplification), "noisy": kicks > 0}
+
+
+# ----- a run-up, replayed slowly in physical time ----------------------------------------------
+
+@dataclasses.dataclass
+class NaiveRunup:
+    """A measured run-up as docs/model.md ("A run-up in physical time") writes it, in SI units.
+
+    The shaft's mean speed ramps linearly, ``rpm(t) = rpm_from + c t``; its mean angle is
+    ``ψ(t) = 2π/60 (rpm_from t + c t²/2)``; each harmonic ``n`` (engine order ``n ·
+    engine_order``) has amplitude ``θ_n`` and phase ``φ_n`` given at ``knots_rpm`` and
+    interpolated by scipy's cubic spline in rpm.  The driving tooth is
+    ``y(t) = scale Σ_n θ_n cos(n · engine_order · ψ − φ_n)`` and the gear's flight deceleration
+    is the constant ``q``.  Derivatives come from the chain rule, term by term.
+    """
+
+    knots_rpm: np.ndarray
+    theta: np.ndarray
+    phase_rad: np.ndarray
+    engine_order: float
+    rpm_from: float
+    rpm_to: float
+    duration: float
+    scale: float
+    q: float
+
+    def __post_init__(self):
+        from scipy.interpolate import CubicSpline
+        self._th = CubicSpline(self.knots_rpm, self.theta, axis=0)
+        self._ph = CubicSpline(self.knots_rpm, self.phase_rad, axis=0)
+        self.c = (self.rpm_to - self.rpm_from) / self.duration
+
+    def y(self, t, m: int = 0):
+        """The tooth (m = 0) or its velocity (m = 1) at times ``t`` [s]."""
+        t = np.atleast_1d(np.asarray(t, dtype=np.float64))
+        rpm = self.rpm_from + self.c * t
+        psi = 2.0 * np.pi / 60.0 * (self.rpm_from * t + 0.5 * self.c * t * t)
+        omega = 2.0 * np.pi / 60.0 * rpm
+        out = np.zeros_like(t)
+        th, ph = self._th(rpm), self._ph(rpm)
+        dth, dph = self._th(rpm, 1) * self.c, self._ph(rpm, 1) * self.c
+        for i in range(self.theta.shape[1]):
+            k = (i + 1) * self.engine_order
+            arg = k * psi - ph[:, i]
+            if m == 0:
+                out += th[:, i] * np.cos(arg)
+            else:
+                out += dth[:, i] * np.cos(arg) - th[:, i] * np.sin(arg) * (k * omega - dph[:, i])
+        return self.scale * out
+
+
+def naive_runup(model: NaiveRunup, b, r, x0, v0, t_end, dt, v_stick=1e-9):
+    """Impacts of the gear from ``(0, x0, v0)`` to ``t_end`` [s]: ``(times, Δv, flanks)``.
+
+    Each flight ``x = x0 + v0 s − q s²/2`` is scanned on a grid of ``dt`` for the first sign
+    change of either gap ``x − y`` or ``y + b − x``, and the crossing is polished with ``brentq``.
+    Impacts ``ẋ⁺ = ẏ − r (ẋ⁻ − ẏ)``.  Built for rattle without sticking: an impact slower than
+    ``v_stick`` [m/s] raises :class:`ReferenceError_`.
+    """
+    t, x, v = 0.0, float(x0), float(v0)
+    times, dvs, flanks = [], [], []
+    first = True
+    while t < t_end:
+        def gaps(s, t=t, x=x, v=v):
+            xs = x + v * s - 0.5 * model.q * s * s
+            ys = model.y(t + s)
+            return xs - ys, ys + b - xs
+        # leave the wall this flight starts on: the first grid point is a small step out
+        s_prev = 0.0 if first else 1e-3 * dt
+        first = False
+        found = None
+        while found is None:
+            smax = t_end - t
+            if s_prev >= smax:
+                break
+            sg = np.minimum(s_prev + dt * np.arange(1, 2049), smax)
+            ga, gr = gaps(sg)
+            bad = (ga <= 0.0) | (gr <= 0.0)
+            if np.any(bad):
+                i = int(np.argmax(bad))
+                lo = sg[i - 1] if i > 0 else s_prev
+                roots = []
+                for which, flank in ((0, 1), (1, -1)):
+                    f = (lambda s, w=which: float(gaps(np.array([s]))[w][0]))
+                    if f(sg[i]) <= 0.0:
+                        roots.append((brentq(f, lo, sg[i], xtol=1e-16, rtol=4 * np.finfo(float).eps,
+                                             maxiter=200), flank))
+                found = min(roots)
+            else:
+                s_prev = sg[-1]
+                if sg[-1] >= smax:
+                    break
+        if found is None:
+            break
+        s, flank = found
+        t = t + s
+        v_minus = v - model.q * s
+        yd = float(model.y(t, 1)[0])
+        w = v_minus - yd
+        if abs(w) < v_stick:
+            raise ReferenceError_(f"an impact at t = {t!r} is slower than v_stick: the reference "
+                                  "does not follow sticking")
+        v = yd - r * w
+        x = float(model.y(t)[0]) + (0.0 if flank == 1 else b)
+        times.append(t)
+        dvs.append(v - v_minus)
+        flanks.append(flank)
+    return np.array(times), np.array(dvs), np.array(flanks)

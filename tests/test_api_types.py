@@ -162,3 +162,114 @@ def test_blockwise_rendering_matches_one_block(monkeypatch):
     monkeypatch.setattr(sound, "_BLOCK", 1000)
     blocks = sound.render(t[::-1], a[::-1], 0.5, 44100)
     np.testing.assert_allclose(blocks, whole, rtol=0, atol=1e-12 * np.max(np.abs(whole)))
+
+
+# ----- arguments refused before any work: callbacks, sequences, continuation's choices -----
+
+def _box():
+    from rattle_core.model.gearbox import Gearbox
+    return Gearbox.from_text(
+        "[excitation]\norders = [{order = 2, accel_rad_s2 = 400}]\nengine_order = 2\n"
+        "harmonics = 1\n[[gear]]\nname = 'g'\ninertia_kgm2 = 4e-4\nbase_radius_m = 0.035\n"
+        "drag_torque_Nm = 0.05\nbacklash_um = 80\n")
+
+
+def _entry_points():
+    """Every public function that takes progress and cancel: name → call(**callbacks)."""
+    from rattle_core import contact_bifurcation, continue_bifurcation, noise_sensitivity, statistics
+    from rattle_core.analysis.continuation import atlas
+    from rattle_core.batch.gearbox import verdict
+    from rattle_core.store.verdicts import cached_verdict
+    return {
+        "sweep": lambda **cb: sweep(P, "lam", np.linspace(1, 4, 400), transient=500, record=200,
+                                    chunk_size=20, **cb),
+        "regime_map": lambda **cb: regime_map(P, "lam", [1.0, 2.0], "r", [0.5, 0.6], transient=1,
+                                              record=1, **cb),
+        "basin_map": lambda **cb: basin_map(P, [4.0], [0.0], transient=1, **cb),
+        "run_map": lambda **cb: run_map(P, None, "lam", [1.0], "r", [0.5], use_cache=False,
+                                        transient=1, record=1, **cb),
+        "statistics": lambda **cb: statistics(P, runs=2, periods=10, transient=0, **cb),
+        "noise_sensitivity": lambda **cb: noise_sensitivity(P, runs=2, periods=10, transient=0,
+                                                            **cb),
+        "continue_orbit": lambda **cb: continue_orbit(orbit(), "lam", max_points=3, **cb),
+        "continue_bifurcation": lambda **cb: continue_bifurcation(
+            contact_bifurcation(P, "lam"), "r", max_points=3, **cb),
+        "atlas": lambda **cb: atlas(P, "lam", (1.0, 2.0), "r", (0.5, 0.7), max_curves=1,
+                                    max_points=10, **cb),
+        "verdict": lambda **cb: verdict(_box(), [1000.0, 2000.0], transient=10, record=10, **cb),
+        "cached_verdict": lambda **cb: cached_verdict(_box(), [1000.0, 2000.0], transient=10,
+                                                      record=10, use_cache=False, **cb),
+    }
+
+
+ENTRY_POINTS = ["sweep", "regime_map", "basin_map", "run_map", "statistics", "noise_sensitivity",
+                "continue_orbit", "continue_bifurcation", "atlas", "verdict", "cached_verdict"]
+BAD_CALLBACKS = [("progress", 5), ("progress", "x"), ("cancel", "x"), ("cancel", 5),
+                 ("cancel", object())]
+
+
+@pytest.mark.parametrize("bad", BAD_CALLBACKS, ids=[f"{n}={v!r:.10}" for n, v in BAD_CALLBACKS])
+@pytest.mark.parametrize("entry", ENTRY_POINTS)
+def test_bad_progress_or_cancel_is_refused_before_any_work(entry, bad):
+    """A progress that is not callable, or a cancel that is neither an Event nor a callable,
+    raises a TypeError naming the argument before any work: the other callback, a valid
+    recorder, is never called (a chunk or a point would have polled or reported)."""
+    name, value = bad
+    calls = []
+    other = ({"cancel": lambda: calls.append("cancel") or False} if name == "progress"
+             else {"progress": lambda *a: calls.append("progress")})
+    with pytest.raises(TypeError) as err:
+        _entry_points()[entry](**{name: value}, **other)
+    assert name in str(err.value) and isinstance(err.value, ValueError)
+    assert calls == []
+
+
+def test_an_event_cancels_a_sweep_as_it_does_a_branch():
+    """A threading.Event is a cancel everywhere: set before a sweep, it stops it before the
+    first chunk (the batch layer polls a callable; the Event's is_set is taken)."""
+    import threading
+    stop = threading.Event()
+    stop.set()
+    res = sweep(P, "lam", [1.0, 2.0], transient=1, record=1, cancel=stop)
+    assert res.cancelled and len(res.values) == 0
+    free = sweep(P, "lam", [1.0, 2.0], transient=1, record=1, cancel=threading.Event())
+    assert not free.cancelled and len(free.values) == 2
+
+
+@pytest.mark.parametrize("name, call", [
+    ("amplitudes", lambda: RattleParams(lam=1.0, amplitudes=(a for a in (1.0, 0.2)),
+                                        phases_deg=(0.0, 0.0))),
+    ("phases_deg", lambda: RattleParams(lam=1.0, amplitudes=(1.0, 0.2),
+                                        phases_deg=iter((0.0, 0.0)))),
+    ("amplitudes", lambda: RattleParams.paper(lam=1.0, amplitudes=(a for a in (1.0, 0.2)),
+                                              phases_deg=(0.0, 0.0))),
+    ("amplitudes", lambda: __import__("rattle_core").units.PhysicalParams(
+        inertia=2e-4, radius=0.04, drag_torque=0.02, backlash=1.6e-4, rpm=1500,
+        amplitudes=(a for a in (5e-4,)))),
+])
+def test_amplitudes_given_as_a_generator_are_refused(name, call):
+    """A generator or iterator where a sequence is due is refused with a TypeError naming the
+    argument: it would be used up by its first reading."""
+    with pytest.raises(TypeError, match=f"{name} must be a sequence or array"):
+        call()
+
+
+@pytest.mark.parametrize("direction", [1.0, -1.0, np.float64(1.0), 1 + 0j, True, "1"])
+def test_continue_orbit_takes_only_the_int_directions(direction):
+    """direction must be the int 1 or -1: a float, a complex, a bool or text is refused."""
+    with pytest.raises(ValueError, match="direction"):
+        continue_orbit(orbit(), "lam", direction=direction, max_points=1)
+    for ok in (1, -1, np.int64(-1)):
+        continue_orbit(orbit(), "lam", direction=ok, max_points=1)
+
+
+def test_continue_orbit_needs_its_parameter_named():
+    """param=None is refused for an orbit or parameters (it would silently be Λ); only a
+    bifurcation's restart may leave it out.  A name that is not text is a TypeError."""
+    for start in (orbit(), P):
+        with pytest.raises(ValueError, match="param = None"):
+            continue_orbit(start, None, max_points=1)
+        with pytest.raises(ValueError, match="param = None"):
+            continue_orbit(start, max_points=1)
+    with pytest.raises(TypeError, match="param = 3"):
+        continue_orbit(orbit(), 3, max_points=1)

@@ -362,14 +362,17 @@ def test_bad_arguments_give_one_line_and_exit_2(argv, message, capsys, tmp_path,
 @pytest.fixture()
 def no_work(monkeypatch):
     """Every computation a command could start fails the test: errors must come first."""
-    import rattle_cli.commands.sweep as sweep_command
+    import rattle_core
+    import rattle_core.batch.sweep as sweep_module
     import rattle_core.paper.figures as figures
+    import rattle_core.store.cache as cache
+    import rattle_core.store.requests as requests
 
     def started(*a, **k):
         raise AssertionError("work started before the request was checked")
-    for mod, name in ((sweep_command, "sweep"), (sweep_command, "cached_sweep"),
-                      (sweep_command, "run_map"), (simulate_command, "simulate"),
-                      (figures, "write_paper_figures")):
+    # the commands import these inside run(), so they find the stand-ins
+    for mod, name in ((sweep_module, "sweep"), (cache, "cached_sweep"), (requests, "run_map"),
+                      (rattle_core, "simulate"), (figures, "write_paper_figures")):
         monkeypatch.setattr(mod, name, started)
 
 
@@ -441,7 +444,7 @@ def test_solver_limit_exits_1_with_one_line(monkeypatch, capsys, tmp_path):
     def runaway(*args, **kwargs):
         raise SolverError("runaway: more than 10 impacts within one forcing period")
 
-    monkeypatch.setattr(simulate_command, "simulate", runaway)
+    monkeypatch.setattr("rattle_core.simulate", runaway)  # imported inside the command's run()
     code, _, err = run(["simulate", "--impacts", str(tmp_path / "x.csv")], capsys)
     assert code == 1
     assert err == "rattle: error: runaway: more than 10 impacts within one forcing period\n"

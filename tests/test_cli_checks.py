@@ -16,7 +16,6 @@ from pathlib import Path
 
 import pytest
 
-import rattle_cli.commands.continue_ as continue_command
 from rattle_cli.main import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -62,6 +61,79 @@ def test_bad_arguments_exit_2_in_one_line_at_once(argv, words, tmp_path, capsys,
     assert not private_cache.exists() or not any(private_cache.iterdir())
 
 
+ATLAS = ["atlas", "--lam", "1.2", "--from", "simulate:lam:pd", "--param2", "r", "--bounds",
+         "0.3,0.9", "--out", "{tmp}/a.csv"]
+GEARBOX_TOML = """[excitation]
+orders = [{order = 2, accel_rad_s2 = 400}]
+harmonics = 1
+[[gear]]
+name = "g"
+inertia_kgm2 = 4e-4
+base_radius_m = 0.035
+drag_torque_Nm = 0.05
+backlash_um = 80
+"""
+GEARBOX = ["gearbox", "{tmp}/box.toml", "--rpm", "1000:3000:3", "--out", "{tmp}/v.csv"]
+BASINS = ["sweep", "--param", "x0", "--start", "-100", "--stop", "100", "--num", "3",
+          "--param2", "v0", "--start2", "0", "--stop2", "1", "--num2", "2", "--transient", "10",
+          "--record", "5", "--no-png"]
+
+
+@pytest.mark.parametrize("argv, words", [
+    (ATLAS + ["--transient", "-1"], ["--transient -1", "[0,"]),
+    (ATLAS + ["--x0", "nan"], ["--x0 nan", "finite"]),
+    (ATLAS + ["--x0", "inf"], ["--x0 inf"]),
+    (GEARBOX + ["--workers", "0"], ["--workers 0", "[1, 256]"]),
+    (GEARBOX + ["--workers", "-3"], ["--workers -3"]),
+    (["--version", "extra"], ["'extra'"]),
+    (["--version", "cache"], ["--version takes no other argument", "'cache'"]),
+    (SWEEP + ["--out", "{tmp}/a.npz", "--no-png", "--png", "{tmp}/x.jpg"], ["--no-png", "--png"]),
+    (SWEEP + ["--out", "{tmp}/a.npz", "--no-png", "--png", "{tmp}/x.png"], ["--no-png", "--png"]),
+    (BASINS + ["--out", "{tmp}/b.npz"], ["--param x0", "backlash", "[1, 9]"]),
+    (["sweep", "--param", "v0", "--start", "0", "--stop", "1", "--num", "2", "--param2", "x0",
+      "--values2", "5,20", "--no-png", "--out", "{tmp}/b.npz"], ["--param2 x0", "backlash"]),
+    (GEARBOX[:1] + ["{tmp}/deep.toml"] + GEARBOX[2:], ["deep.toml", "line 1", "depth is 8"]),
+    (GEARBOX[:1] + ["{tmp}/bidi.toml"] + GEARBOX[2:], ["bidi.toml", "[[gear]] number 1",
+                                                        "U+202E"]),
+])
+def test_bad_or_conflicting_arguments_are_refused_before_any_progress(argv, words, tmp_path,
+                                                                      capsys, private_cache):
+    """Bad or conflicting arguments, a basin start outside the backlash and a hostile gearbox
+    file exit 2 with one line, before any progress bar, worker or cache entry."""
+    (tmp_path / "box.toml").write_text(GEARBOX_TOML)
+    (tmp_path / "deep.toml").write_text("x = " + "[" * 5000 + "]" * 5000 + "\n")
+    (tmp_path / "bidi.toml").write_text(GEARBOX_TOML.replace('"g"', '"g\\u202egnittar"'))
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
+    t0 = time.monotonic()
+    line = one_line_error(argv, capsys, *words)
+    assert time.monotonic() - t0 < 30
+    assert "%|" not in line and "\u202e" not in line
+    assert not private_cache.exists() or not any(private_cache.iterdir())
+    assert not (tmp_path / "a.csv").exists() and not (tmp_path / "v.csv").exists()
+
+
+def test_the_version_alone_is_printed(capsys):
+    """--version alone prints the version and exits 0; no command at all is still an error."""
+    assert main(["--version"]) == 0
+    out, err = capsys.readouterr()
+    assert out.startswith("rattle ") and len(out.strip().splitlines()) == 1 and not err
+    one_line_error([], capsys, "required: COMMAND")
+
+
+@pytest.mark.parametrize("action", ["clear", "show"])
+@pytest.mark.parametrize("below", [False, True], ids=["file", "under-a-file"])
+def test_a_cache_directory_that_is_a_file_is_refused(action, below, tmp_path, capsys,
+                                                     monkeypatch):
+    """RATTLE_CACHE_DIR naming a file (or a folder under one) makes cache clear and show, and
+    the commands that use the cache, exit 2 with one line; the file is left as it was."""
+    blocker = tmp_path / "not-a-dir"
+    blocker.write_text("keep")
+    monkeypatch.setenv("RATTLE_CACHE_DIR", str(blocker / "sub" if below else blocker))
+    one_line_error(["cache", action], capsys, "RATTLE_CACHE_DIR", "is not a directory")
+    one_line_error(SWEEP + ["--out", str(tmp_path / "a.npz")], capsys, "RATTLE_CACHE_DIR")
+    assert blocker.read_text() == "keep"
+
+
 def test_the_cache_size_variable_is_checked_first(tmp_path, capsys, monkeypatch, private_cache):
     """A RATTLE_CACHE_SIZE_MB that is not a size stops the command before it runs."""
     monkeypatch.setenv("RATTLE_CACHE_SIZE_MB", "lots")
@@ -83,7 +155,7 @@ def test_continuation_tables_are_checked_before_the_search(tail, tmp_path, capsy
     """continue checks OUT_impacts and OUT_bifurcations before it looks for an orbit."""
     def no_search(*a, **k):
         raise AssertionError("an orbit was searched before the outputs were checked")
-    monkeypatch.setattr(continue_command.cont, "find_orbit", no_search)
+    monkeypatch.setattr("rattle_core.analysis.continuation.find_orbit", no_search)
     (tmp_path / f"c{tail}.csv").mkdir()
     one_line_error(["continue", "--lam", "3.3", "--out", str(tmp_path / "c.csv")], capsys,
                    f"c{tail}.csv")

@@ -88,7 +88,8 @@ def test_cli_rpm_sweep_takes_its_harmonics_from_a_measurement(tmp_path):
 
     import pandas as pd
     root = Path(__file__).resolve().parent.parent
-    env = {"RATTLE_CACHE_DIR": str(tmp_path / "cache"), "PATH": "/usr/bin:/bin"}
+    env = {"RATTLE_CACHE_DIR": str(tmp_path / "cache"), "PATH": "/usr/bin:/bin",
+           "RATTLE_CONFIG_DIR": str(tmp_path / "config")}
     gear = ["--inertia", "4e-4", "--radius", "0.035", "--drag-torque", "0.05", "--backlash-um",
             "80", "--rpm", "1500", "--theta-amp", "1e-3"]
     out = tmp_path / "rpm.csv"

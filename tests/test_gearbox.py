@@ -227,15 +227,16 @@ def test_verdict_cancels_between_chunks(box):
 
 @pytest.mark.parametrize("text, message", [
     (TOML.replace("backlash_um = 80", "backlash_um = -80"),
-     r"gear '5th idler': backlash_um = -80.0 is outside the allowed range"),
+     r"gearbox text, \[\[gear\]\] number 1 \('5th idler'\): backlash_um = -80.0 is outside "
+     r"the allowed range"),
     (TOML.replace("restitution = 0.65", "restitution = 0.65\nstiffness = 3"),
-     r"gear '5th idler': unknown key 'stiffness'"),
+     r"gearbox text, \[\[gear\]\] number 1 \('5th idler'\): unknown key 'stiffness'"),
     (TOML.replace('measurement = "sample"', 'measurement = "/etc/passwd"'),
      r"a gearbox given as text names no file"),
     (TOML.replace("harmonics = 3", "harmonics = 9"), r"samples per cycle of order 18"),
     (TOML + '\n[[gear]]\nname = "5th idler"\ninertia_kgm2 = 1e-4\nbase_radius_m = 0.03\n'
             'drag_torque_Nm = 0.02\nbacklash_um = 50\n', r"'5th idler' appears twice"),
-    ("[excitation\n", r"gearbox TOML: "),
+    ("[excitation\n", r"gearbox text: TOML syntax: .*\(at line 1, column 12\)"),
 ])
 def test_bad_gearbox_text_is_refused_naming_what(text, message):
     """Bad values, unknown keys, a file path in uploaded text, missing orders, twin names and
@@ -264,7 +265,8 @@ def test_cli_gearbox_writes_the_verdict_and_refuses_bad_files(tmp_path):
     exits 2 with one line."""
     (tmp_path / "gb.toml").write_text(TOML)
     out = tmp_path / "verdict.csv"
-    env = {"RATTLE_CACHE_DIR": str(tmp_path / "cache"), "PATH": "/usr/bin:/bin"}
+    env = {"RATTLE_CACHE_DIR": str(tmp_path / "cache"), "PATH": "/usr/bin:/bin",
+           "RATTLE_CONFIG_DIR": str(tmp_path / "config")}
     cmd = [sys.executable, "-m", "rattle_cli", "gearbox"]
     r = subprocess.run(cmd + [str(tmp_path / "gb.toml"), "--rpm", "1500:2500:3", "--out", str(out),
                               "--transient", "60", "--record", "30", "-q", "--png"],
@@ -291,3 +293,130 @@ def test_verdict_on_dask_equals_the_local_one(box):
     with dask_session("local", 2) as client:
         there = verdict(box, rpm, transient=100, record=40, chunk_speeds=1, executor=client)
     assert there.table.equals(here.table)
+
+
+# ----- a user's file: bounded, printable names, every error one line at its place ----------
+
+GEAR = ('[[gear]]\nname = "{name}"\ninertia_kgm2 = 4e-4\nbase_radius_m = 0.035\n'
+        'drag_torque_Nm = 0.05\nbacklash_um = 80\n')
+HEAD = '[excitation]\nmeasurement = "sample"\nengine_order = 2\nharmonics = 3\n'
+
+
+def refused(tmp_path, text: str) -> str:
+    """The message of a gearbox file holding ``text``: one line naming the file."""
+    path = tmp_path / "box.toml"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(ValueError) as err:
+        Gearbox.from_toml(path)
+    msg = str(err.value)
+    assert "\n" not in msg and msg.startswith("gearbox file 'box.toml'"), msg
+    assert not isinstance(err.value.__cause__ or err.value.__context__, RecursionError)
+    return msg
+
+
+@pytest.mark.parametrize("deep", [
+    "orders = " + "[" * 5000 + "]" * 5000,
+    "orders = " + "{a = " * 3000 + "1" + "}" * 3000,
+    "orders = [" + "[" * 9 + "]" * 9 + "]",
+])
+def test_deep_nesting_is_refused_before_parsing_naming_the_line(deep, tmp_path):
+    """Arrays or inline tables nested past the stated depth (8) are refused at their line
+    before the parser recurses: a one-line ValueError, never a RecursionError."""
+    from rattle_core.model.gearbox import MAX_TOML_DEPTH
+    msg = refused(tmp_path, "[excitation]\nengine_order = 2\n" + deep + "\n")
+    assert "line 3" in msg and f"allowed depth is {MAX_TOML_DEPTH}" in msg, msg
+
+
+def test_brackets_in_strings_and_comments_do_not_count_as_nesting():
+    """Brackets inside strings (all four kinds) and comments are text: the file still reads."""
+    deep = "[" * 20 + "{" * 20
+    text = (f"# {deep}\n" + HEAD + f"# again {deep}\n"
+            + GEAR.format(name=deep) + f"# '{deep}\n"
+            + GEAR.format(name="b").replace('"b"', f"'''b{deep}'''")
+            + GEAR.format(name="c").replace('"c"', f'"""c\\"{deep}"""'))
+    box = Gearbox.from_text(text)
+    assert [g.name for g in box.gears] == [deep, f"b{deep}", f'c"{deep}']
+
+
+def test_exactly_the_allowed_depth_is_taken():
+    """Nesting of exactly the stated depth, counted from the top of the file, reaches the
+    checks of the keys; one level more is refused by the bound."""
+    from rattle_core.model.gearbox import MAX_TOML_DEPTH
+    d = MAX_TOML_DEPTH
+    with pytest.raises(ValueError) as err:
+        Gearbox.from_text("stack = " + "[" * d + "]" * d + "\n")
+    assert "deep" not in str(err.value) and "[stack]: unknown table" in str(err.value)
+    with pytest.raises(ValueError, match="deep"):
+        Gearbox.from_text("stack = " + "[" * (d + 1) + "]" * (d + 1) + "\n")
+
+
+@pytest.mark.parametrize("text, place, words", [
+    (HEAD.replace('"sample"', '"sample"\n' + "a." * 12 + "b = 1") + GEAR.format(name="x"),
+     "excitation.a.a.a.a.a.a.a", "nest more than 8"),
+    ("[excitation]\norders = [" + ", ".join(["{order = 2, accel_rad_s2 = 1}"] * 300) + "]\n",
+     "excitation.orders", "300 items"),
+    (HEAD + GEAR.format(name="x" * 2000), "gear[0].name", "2000 characters"),
+    (f'{"k" * 1100} = 1\n' + HEAD + GEAR.format(name="x"), "the top level", "1100 characters"),
+])
+def test_arrays_strings_and_tables_are_bounded_at_their_key_path(text, place, words, tmp_path):
+    """An array over 256 items, a string or key over 1024 characters, or tables nested past 8
+    are refused naming the key path, before any value is read."""
+    msg = refused(tmp_path, text)
+    assert place in msg and words in msg, msg
+
+
+BAD_CHARACTERS = ["\x00", "\x07", "\x1b", "\x7f", "\x85", "\u2028", "\u2029", "\u200e", "\u200f",
+                  "\u061c"] + [chr(c) for c in range(0x202A, 0x202F)] + \
+                 [chr(c) for c in range(0x2066, 0x206A)]
+
+
+@pytest.mark.parametrize("ch", BAD_CHARACTERS, ids=[f"U+{ord(c):04X}" for c in BAD_CHARACTERS])
+def test_names_with_control_or_bidirectional_characters_are_refused(ch, tmp_path):
+    """A gear name holding a control character (NUL included), a line separator or a
+    bidirectional formatting character is refused naming the gear's number and the character,
+    from a file, from uploaded text and from the API; so is a measurement file name."""
+    escaped = f"\\u{ord(ch):04x}"
+    text = HEAD + GEAR.format(name="ok") + GEAR.format(name=f"5th{escaped}idler")
+    msg = refused(tmp_path, text)
+    assert "[[gear]] number 2" in msg and f"U+{ord(ch):04X}" in msg, msg
+    assert ch not in msg  # shown escaped
+    with pytest.raises(ValueError, match=f"U\\+{ord(ch):04X}"):
+        Gearbox.from_text(text)
+    with pytest.raises(ValueError, match=f"gear name .* U\\+{ord(ch):04X}"):
+        Gear(name=f"5th{ch}idler", inertia_kgm2=4e-4, base_radius_m=0.035, drag_torque_Nm=0.05,
+             backlash_um=80)
+    named = HEAD.replace('"sample"', f'"run{escaped}up.csv"') + GEAR.format(name="ok")
+    msg = refused(tmp_path, named)
+    assert "[excitation] measurement" in msg and f"U+{ord(ch):04X}" in msg, msg
+
+
+def test_printable_names_in_any_script_are_kept():
+    """Names in other scripts, with accents, emoji joiners or right-to-left letters are text,
+    not control: they are taken as written."""
+    names = ["5. Gang Losrad", "ترس الخامس", "第五档", "idler \u00e9\u0301", "👨\u200d🔧 gear"]
+    text = HEAD + "".join(GEAR.format(name=n) for n in names)
+    assert [g.name for g in Gearbox.from_text(text).gears] == names
+
+
+@pytest.mark.parametrize("text, place", [
+    (HEAD + GEAR.format(name="a") + GEAR.format(name="b").replace("80", "-1"),
+     "[[gear]] number 2 ('b'): backlash_um = -1.0"),
+    (HEAD + GEAR.format(name="a") + "[[gear]]\nname = 'c'\n", "[[gear]] number 2 ('c'): missing key"),
+    (HEAD.replace("harmonics = 3", "harmonics = 2.5") + GEAR.format(name="a"),
+     "[excitation] harmonics: harmonics = 2.5"),
+    (HEAD.replace("engine_order = 2", "engine_order = 'two'") + GEAR.format(name="a"),
+     "[excitation] engine_order"),
+    ("[excitation]\norders = [{order = 2, accel_rad_s2 = 1}, {order = 4, accel_rad_s2 = -5}]\n"
+     + GEAR.format(name="a"), "[excitation] orders[1]: accel_rad_s2 = -5.0"),
+    (HEAD + "[sound]\nduration_s = 99\n" + GEAR.format(name="a"), "[sound]: duration_s = 99"),
+    (HEAD + "[noise]\n" + GEAR.format(name="a"), "[noise]: unknown table"),
+    ("gear = 3\n" + HEAD, "[[gear]]: give at least one"),
+    (HEAD.replace('"sample"', '"missing.csv"') + GEAR.format(name="a"),
+     "[excitation] measurement = 'missing.csv'"),
+    (HEAD + GEAR.format(name="a") + "x = = 1\n", "TOML syntax"),
+])
+def test_every_error_of_a_file_is_one_line_naming_the_file_and_the_place(text, place, tmp_path):
+    """Each bad file gives one line: the file's name, then the place (gear number and name,
+    key path, line), then what is wrong."""
+    msg = refused(tmp_path, text)
+    assert place in msg, msg

@@ -5,7 +5,9 @@ Layers, lowest first: ``rattle_core.model`` → ``solver`` → ``analysis`` → 
 public names) → the top: the CLI (``rattle_cli``) and the dashboard (``app``, installed as
 ``rattle_app``).  ``rattle_core.jitcache`` sits below them all.  The test reads the source with
 :mod:`ast`, so an import inside a function, under ``TYPE_CHECKING`` or spelled
-``importlib.import_module("...")`` / ``__import__("...")`` counts like any other.
+``importlib.import_module("...")`` / ``__import__("...")`` counts like any other.  No two
+modules import each other, by any of these imports: a circle hidden in a function still ties
+them into one.
 """
 from __future__ import annotations
 
@@ -59,9 +61,11 @@ def _resolve(module: str, is_package: bool, level: int, name: str | None) -> str
     return ".".join(base + ([name] if name else []))
 
 
-def imports_of(module: str, source: str, is_package: bool = False) -> list[tuple[int, str]]:
+def imports_of(module: str, source: str, is_package: bool = False,
+               names: bool = False) -> list[tuple[int, str]]:
     """``(line, absolute module)`` of every import in ``source``; a dynamic import whose target
-    is not a string literal is returned as ``"<dynamic>"``, since it cannot be checked."""
+    is not a string literal is returned as ``"<dynamic>"``, since it cannot be checked.
+    With ``names``, ``from pkg import name`` also gives ``pkg.name`` (a module, if it is one)."""
     found = []
     for node in ast.walk(ast.parse(source)):
         if isinstance(node, ast.Import):
@@ -70,6 +74,8 @@ def imports_of(module: str, source: str, is_package: bool = False) -> list[tuple
             target = _resolve(module, is_package, node.level, node.module)
             # ``from pkg import name`` is checked at pkg: a layer's sub-packages share its layer
             found.append((node.lineno, target))
+            if names:
+                found += [(node.lineno, f"{target}.{a.name}") for a in node.names]
         elif isinstance(node, ast.Call):
             f = node.func
             name = f.attr if isinstance(f, ast.Attribute) else getattr(f, "id", "")
@@ -206,6 +212,29 @@ def find_cycle(graph: dict[str, set[str]]) -> list[str]:
     return []
 
 
+def _project_name(module: str) -> str:
+    """``rattle_app`` is how the dashboard is installed; its modules are ``app``'s."""
+    head, _, rest = module.partition(".")
+    return "app" + ("." + rest if rest else "") if head == "rattle_app" else module
+
+
+def import_graph(sources: dict[str, str]) -> dict[str, set[str]]:
+    """Each module of ``sources`` (name → source) → the modules of ``sources`` it imports
+    anywhere: at import time, inside a function, or by a literal ``import_module`` /
+    ``__import__``.  An import inside a function runs later, but the two modules still need
+    each other: a circle through it is a circle all the same."""
+    return {m: {t for t in (_project_name(t) for _, t in imports_of(m, src, names=True))
+                if t in sources and t != m}
+            for m, src in sources.items()}
+
+
+def project_sources() -> dict[str, str]:
+    """Every module of the project (packages left out: a package's own imports are its
+    facade), name → source."""
+    return {m: p.read_text(encoding="utf-8") for m, p in project_modules()
+            if p.name != "__init__.py"}
+
+
 def test_no_core_module_imports_itself_through_another():
     """No import circle between the core's modules at import time, imports under
     TYPE_CHECKING included."""
@@ -216,3 +245,33 @@ def test_the_cycle_finder_sees_a_circle():
     """The circle finder reports a two-module circle and passes a chain."""
     assert find_cycle({"a": {"b"}, "b": {"a"}}) == ["a", "b", "a"]
     assert find_cycle({"a": {"b"}, "b": {"c"}, "c": set()}) == []
+
+
+def test_no_module_imports_itself_through_another_even_from_a_function():
+    """No import circle between the project's modules through any import: those inside
+    functions and the literal dynamic ones count like the ones at the top."""
+    assert find_cycle(import_graph(project_sources())) == []
+
+
+CODIM2, TWOPARAM = ("rattle_core.analysis.continuation.codim2",
+                    "rattle_core.analysis.continuation.twoparam")
+
+
+@pytest.mark.parametrize("a, a_src, b, b_src", [
+    (CODIM2, "def f():\n    from .twoparam import _orbit\n    return _orbit",
+     TWOPARAM, "from .codim2 import _record"),
+    (CODIM2, "def f():\n    from . import twoparam", TWOPARAM, "from .codim2 import _record"),
+    (CODIM2, "import importlib\ndef f():\n    return importlib.import_module("
+     "'rattle_core.analysis.continuation.twoparam')", TWOPARAM, "from .codim2 import _record"),
+    ("app.state", "def f():\n    from rattle_app.views.page import build",
+     "app.views.page", "from ..state import State"),
+])
+def test_a_circle_through_a_function_level_import_is_seen(a, a_src, b, b_src):
+    """Two modules that import each other, one of them only inside a function (or by a
+    literal dynamic import), form a circle; the import-time graph alone does not see it."""
+    sources = {a: a_src, b: b_src}
+    cycle = find_cycle(import_graph(sources))
+    assert len(cycle) == 3 and cycle[0] == cycle[-1] and set(cycle) == {a, b}
+    at_import = {m: {t for t in _module_level_imports(m, ast.parse(src)) if t in sources and t != m}
+                 for m, src in sources.items()}
+    assert find_cycle(at_import) == []

@@ -61,3 +61,61 @@ def test_a_noise_sensitive_run_gets_a_badge_that_says_what_moves(dash):
     s.param.update(lam=1.2, h2=0.0)
     wait_for(lambda: s.result is not None and s.result.params.lam == 1.2, 60, "the C orbit")
     assert not dash.noise.badge.visible and dash.noise.result is None
+
+
+
+def test_coexisting_attractors_are_named_and_the_badge_quotes_the_run_on_screens_own(dash):
+    """Fig 2's settings at Λ = 1.16: the ensemble splits over B, D and C; the badge names all
+    three with their runs, quotes the chaotic D's own mean active impulse (≈ 8.53, with its
+    interval) for the chaotic run on screen instead of B's exact 0.0622 "over 8 runs", and
+    gives each attractor its own noise verdict."""
+    from app.presets import preset_values
+
+    s = dash.state
+    s.param.update(**{**preset_values(s, "Fig 2"), "lam": 1.16})
+    wait_for(lambda: s.result is not None and s.result.params.lam == 1.16, 120, "the run")
+    assert s.result.cls.period == 0 and abs(s.result.cls.mean_impulse_active - 8.53) < 0.05
+    wait_for(lambda: dash.noise.result is not None, 300, "the noise check")
+    text = dash.noise.badge.object
+    assert "3 attractors at noise 1e-12: B (4 of 8 runs), D (3), C (1)." in text, text
+    m = re.search(r"The run on screen is on D: mean active impulse ([\d.]+) ± ([\d.]+) over "
+                  r"its 3 runs", text)
+    assert m and abs(float(m.group(1)) - 8.53) < 0.02 and 0 < float(m.group(2)) < 0.05, text
+    assert "0.06218" not in text and "over 8 runs" not in text
+    for name in "DBC":
+        assert f"{name}: not noise-sensitive over noise 1e-12…0.0001" in text, text
+    assert 'data-kind="steady"' in text
+
+
+def test_each_attractor_is_followed_across_levels_with_its_own_verdict():
+    """attractor_verdicts: an exact one-run orbit steady at every level is not noise-sensitive,
+    one whose exact value moves by 2 % is (exact values weigh, though one run has no
+    interval); a chaotic cloud whose mean moves by 50
+    half-widths is; one missing at a level is, and its estimates there are NaN."""
+    import math
+
+    from rattle_core.analysis.statistics import Attractor, Estimate, attractor_verdicts
+
+    def att(label, regime, period, runs, v, ci, n):
+        est = {k: Estimate(v, ci, n) for k in ("impacts_per_period", "mean_active_impulse",
+                                                "mean_reverse_impulse", "intensity")}
+        return Attractor(label, regime, period, runs, est)
+
+    levels = [1e-12, 1e-8, 1e-4]
+    per_level = [[att("D (chaotic)", "D", 0, (0, 1, 2), 8.5 + 0.5 * i, 0.01, 3),
+                  att("C (period 1)", "C", 1, (3,), 5.4, 0.0, 1),
+                  att("E (period 1)", "E", 1, (5,), 2.0 + 0.02 * i, 0.0, 1)]
+                 + ([att("B (period 1)", "B", 1, (4,), 0.06, 0.0, 1)] if i < 2 else [])
+                 for i in range(3)]
+    out = {a["label"]: a for a in attractor_verdicts(levels, per_level)}
+    assert [a["label"] for a in attractor_verdicts(levels, per_level)] == [
+        "D (chaotic)", "C (period 1)", "E (period 1)", "B (period 1)"]
+    assert out["E (period 1)"]["sensitive"]
+    assert not out["C (period 1)"]["sensitive"] and out["C (period 1)"]["runs"] == [1, 1, 1]
+    assert out["D (chaotic)"]["sensitive"]
+    assert "mean active impulse 8.5–9.5" in " ".join(out["D (chaotic)"]["reasons"])
+    b = out["B (period 1)"]
+    assert b["sensitive"] and b["runs"] == [1, 1, 0]
+    assert "not at 0.0001" in b["reasons"][0]
+    assert math.isnan(b["estimates"]["intensity"][2][0])
+    assert b["estimates"]["intensity"][0] == [0.06, 0.0]

@@ -209,3 +209,183 @@ def test_cli_orders_writes_the_table_and_refuses_a_bad_file(tmp_path):
     r = subprocess.run(run + [str(bad), "--out", str(tmp_path / "b.csv")], capture_output=True,
                        text=True, cwd=ROOT, timeout=300)
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "line 1" in r.stderr
+
+
+# ----- the streamed reader and analysis against the slow reference (tests/naive_orders.py) ---
+
+def test_analysis_equals_the_in_memory_reference_on_a_run_down():
+    """An independent 40 s run-down 3200 → 900 rpm with its own orders and phases: the
+    blocked, compiled analysis gives the reference's rpm, amplitudes and phases to rounding
+    (1e-9, far inside 0.3 % and 0.3°)."""
+    import naive_orders
+    t, w, _ = synthetic(3200, 900, 40.0, 8000, (250.0, 90.0, 30.0), phases=(-45.0, 120.0, 10.0),
+                        seed=11, accel=True)
+    m = OrderMap.from_arrays(t, w, ORDERS, rpm_step=100)
+    ref = naive_orders.analyse(t, w, ORDERS, 100.0, "arrays", lambda i: f"sample {i}")
+    assert m.rpm.size == ref.rpm.size >= 20
+    np.testing.assert_allclose(m.rpm, ref.rpm, rtol=1e-12)
+    np.testing.assert_allclose(m.amplitude_rad, ref.amplitude_rad, rtol=1e-9)
+    np.testing.assert_allclose(m.accel_rad_s2, ref.accel_rad_s2, rtol=1e-9)
+    assert np.max(np.abs(phase_error(m.phase_deg, ref.phase_deg))) < 1e-7
+
+
+def test_noise_across_a_bin_edge_is_one_visit_of_the_bin():
+    """Strong sensor noise carries a few samples back and forth across a bin's edge: the
+    reference fits each such piece its own quadratic trend and fails (singular normal
+    equations); here they belong to the visit, and the amplitudes stay within 3 %."""
+    import naive_orders
+    t, w, truth = synthetic(1420, 1580, 60.0, 6000, (300.0, 120.0, 40.0), accel=True, noise=0.3)
+    with pytest.raises(np.linalg.LinAlgError):
+        naive_orders.analyse(t, w, ORDERS, 100.0, "arrays", lambda i: f"sample {i}")
+    m = OrderMap.from_arrays(t, w, ORDERS)
+    assert m.rpm.size == 3
+    assert np.all(np.abs(m.amplitude_rad / truth(m.rpm) - 1) < 0.03)
+
+
+def messy_file(tmp_path, gz: bool = False) -> Path:
+    """A measurement with comments, blank lines, CRLF ends, spaces, a quoted header, extra
+    columns in another order, a comment-looking quoted field and a spelt-out number."""
+    rows = steady_lines(400)
+    body = []
+    for i, row in enumerate(rows):
+        a, b = row.split(",")
+        if i == 10:
+            body += ["# a comment between samples", "", "   ", " ,  ,"]
+        if i == 20:
+            body.append("  # an indented comment")
+        body.append(f"{b} , x{i},{a}" if i % 7 else f" {b},\"q\",  {a} ")
+    text = "\r\n".join(["# measured on the bench", "", '"speed_rpm", note ,"time_s"'] + body) + "\r\n"
+    p = tmp_path / ("messy.csv.gz" if gz else "messy.csv")
+    if gz:
+        with gzip.open(p, "wt", newline="") as f:
+            f.write(text)
+    else:
+        p.write_bytes(text.encode())
+    return p
+
+
+@pytest.mark.parametrize("gz", [False, True])
+def test_reader_equals_the_row_by_row_reader(tmp_path, gz):
+    """pandas' reader behind the line classification gives the csv module's row-by-row
+    reading: the same numbers and the same line number for every sample."""
+    import naive_orders
+    path = messy_file(tmp_path, gz)
+    t, w, lines = om.read_speed_csv(path)
+    rt, rw, rlines = naive_orders.read_speed_csv(path)
+    assert t.size == 400
+    np.testing.assert_array_equal(t, rt)
+    np.testing.assert_array_equal(w, rw)
+    np.testing.assert_array_equal(lines, rlines)
+
+
+@pytest.mark.parametrize("text, message", [
+    ("time_s,speed_rpm\n0,1500\n0.001,\n", r"line 3: time_s and speed_rpm must be numbers, got '0.001,'"),
+    ("time_s,speed_rpm\n0,1500\n0.001\n0.002,1500\n", r"line 3: time_s and speed_rpm must be numbers"),
+    ("# c\ntime_s,speed_rpm\n0,1500\n\n# c\n0.001,1_5x\n", r"line 6: time_s and speed_rpm must be numbers"),
+    ("time_s,speed_rpm,z\n0,1\n1,2\n", None),
+    ("# only comments\n\n", r"holds no header line"),
+])
+def test_the_reader_names_the_line_the_row_by_row_reader_names(tmp_path, text, message):
+    """Empty and missing fields and text name their line (as the row-by-row reader does), past
+    blank lines and comments; a short but well-formed file is read."""
+    import naive_orders
+    path = write(tmp_path, text)
+    if message is None:
+        t, w, lines = om.read_speed_csv(path)
+        assert t.tolist() == [0.0, 1.0] and w.tolist() == [1.0, 2.0] and lines.tolist() == [2, 3]
+        return
+    with pytest.raises(ValueError, match=message):
+        om.read_speed_csv(path)
+    with pytest.raises(ValueError, match=message):
+        naive_orders.read_speed_csv(path)
+
+
+def test_a_file_that_is_not_utf8_or_not_gzip_is_refused(tmp_path):
+    """Bytes that are not UTF-8, and a .gz that is not gzip, are refused naming the file."""
+    bad = tmp_path / "latin.csv"
+    bad.write_bytes("time_s,speed_rpm\n0,1500 \xe9\n".encode("latin-1"))
+    with pytest.raises(ValueError, match="latin.csv is not a UTF-8 text file"):
+        OrderMap.from_csv(bad)
+    fake = tmp_path / "fake.csv.gz"
+    fake.write_bytes(b"time_s,speed_rpm\n")
+    with pytest.raises(ValueError, match="fake.csv.gz cannot be read"):
+        OrderMap.from_csv(fake)
+
+
+def test_progress_rises_to_the_end_and_cancel_stops_the_analysis():
+    """``progress`` counts up to PROGRESS_STEPS without going back; a ``cancel`` that turns
+    True part-way raises AnalysisCancelled before the end."""
+    seen: list[tuple[int, int]] = []
+    m = OrderMap.from_csv(SAMPLE, progress=lambda d, n: seen.append((d, n)))
+    done = [d for d, _ in seen]
+    assert m.rpm.size > 10 and {n for _, n in seen} == {om.PROGRESS_STEPS}
+    assert done == sorted(done) and done[0] == 0 and done[-1] == om.PROGRESS_STEPS and len(done) > 20
+    calls = []
+
+    def cancel() -> bool:
+        calls.append(1)
+        return len(calls) > 30
+    with pytest.raises(om.AnalysisCancelled):
+        OrderMap.from_csv(SAMPLE, cancel=cancel)
+    assert len(calls) == 31
+
+
+MEMORY_PROBE = """
+import resource, sys
+import numpy as np
+from rattle_core.model.orders import OrderMap
+OrderMap.from_csv(sys.argv[2])   # imports and compiled kernels loaded
+base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+m = OrderMap.from_csv(sys.argv[1])
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print(m.rpm.size, (peak - base) * 1024)
+"""
+
+
+def test_memory_of_a_large_steady_file_is_linear_and_small(tmp_path):
+    """A million-row steady file (one rpm bin, 20 MB) in a fresh process: the peak resident
+    memory grows by under 400 bytes per sample over the interpreter's.  The whole-matrix
+    least squares needs over 1.2 kB per sample for that one bin (51 columns, three copies)."""
+    n, rate = 1_000_000, 10_000.0
+    t = np.arange(n) / rate
+    psi = 1500 * 2 * math.pi / 60 * t
+    speed = 1500 + 3 * np.sin(2 * psi) + np.random.default_rng(5).normal(0, 0.2, n)
+    path = tmp_path / "steady.csv"
+    with open(path, "w") as f:
+        f.write("time_s,speed_rpm\n")
+        np.savetxt(f, np.column_stack([t, speed]), fmt=["%.5f", "%.3f"], delimiter=",")
+    assert path.stat().st_size > 15_000_000
+    r = subprocess.run([sys.executable, "-c", MEMORY_PROBE, str(path), str(SAMPLE)],
+                       capture_output=True, text=True, cwd=ROOT, timeout=600)
+    assert r.returncode == 0, r.stderr
+    bins, grown = r.stdout.split()
+    assert int(bins) == 1
+    assert int(grown) < 400 * n, f"{int(grown) / n:.0f} bytes per sample"
+
+
+# ----- an uploaded measurement's own bounds (the dashboard's worker function) -----------------
+
+def test_an_upload_has_its_own_size_row_and_time_bounds_told_about_the_file(monkeypatch):
+    """The dashboard's measurement job refuses a file over 20 MB, over its row bound and over
+    its own time bound, each with a message about the file (never the compute jobs' "fewer
+    values or periods"); the server's websocket takes a 20 MB file base64-encoded, with room."""
+    from app import main
+    from app.views.gearbox import GearboxView
+    from app.work import gearbox as work
+    text = "\n".join(["time_s,speed_rpm"] + steady_lines(4000)).encode() + b"\n"
+    assert work.measurement(text, ORDERS, 100.0).rpm.size == 1
+    with pytest.raises(ValueError, match=r"the uploaded file has 20000001 bytes; the allowed "
+                                         r"size is up to 20000000 bytes \(20 MB\)"):
+        work.measurement(b"x" * 20_000_001, ORDERS, 100.0)
+    monkeypatch.setattr(work, "MEASUREMENT_MAX_ROWS", 1000)
+    with pytest.raises(ValueError, match=r"the uploaded file, line 1002: more than 1000 samples"):
+        work.measurement(text, ORDERS, 100.0)
+    monkeypatch.setattr(work, "MEASUREMENT_MAX_ROWS", 10**6)
+    monkeypatch.setattr(work, "MEASUREMENT_SECONDS", 0.0)
+    with pytest.raises(ValueError, match=r"the uploaded file took over 0 s to read and analyse"):
+        work.measurement(text, ORDERS, 100.0)
+    killed = GearboxView._file_error("stopped after 90 s, the time limit of one job on this "
+                                     "server; try fewer values or periods")
+    assert "the uploaded file took too long" in killed and "fewer values" not in killed
+    assert main.WEBSOCKET_MAX_BYTES > 4 / 3 * work.MAX_MEASUREMENT_BYTES * 1.2
+    assert work.MEASUREMENT_JOB_LIMIT > work.MEASUREMENT_SECONDS

@@ -53,6 +53,23 @@ def test_present_is_a_url_key_and_true_turns_the_mode_on():
     session.destroy()
 
 
+def test_present_stays_lowercase_in_the_url_after_a_slider_move():
+    """Presenting, a move of the header's Λ slider rewrites the link: it still says
+    ``present=true`` (and every other switch in lowercase), never Python's ``True``."""
+    location = Location(search="?present=true")
+    session = Session(location=location)
+    s = session.state
+    assert s.present is True
+    from app.views.present import PresentView
+    slider = PresentView(state=s).slider["lam"]
+    with param.edit_constant(slider):  # as the page sets it when the handle is released
+        slider.value_throttled = 2.25
+    assert s.lam == pytest.approx(2.25) and "lam=2.25" in location.search
+    assert "present=true" in location.search, location.search
+    assert "True" not in location.search and "False" not in location.search, location.search
+    session.destroy()
+
+
 def test_a_bad_present_value_is_refused_with_a_message():
     """``?present=banana`` leaves the mode off and says that only true or false is allowed."""
     session = Session(location=Location(search="?present=banana"))

@@ -60,3 +60,32 @@ def test_the_twin_is_two_exact_runs_and_a_second_click_places_it(dash):
         np.testing.assert_allclose(d[key][0], tr.sample(t)[0], rtol=0, atol=1e-12)
     s.twin_x0 = 50.0
     assert "twin" in s.messages and "x0" in s.messages["twin"]
+
+
+def test_turning_the_twin_on_after_the_page_is_drawn_frames_both_plots_on_their_data(dash):
+    """The page drawn with the twin off (both plots empty, on [0, 1]); ticking it then gives
+    each plot ranges that cover its curves (times 0…40 periods, x over the backlash, the
+    separation on its log scale), and the slope's legend is plain text without braces."""
+    from bokeh.document import Document
+    from bokeh.models import Legend, Plot
+
+    from conftest import wait_for
+
+    s = dash.state
+    s.param.update(**preset_values(s, "Fig 7"))
+    wait_for(lambda: s.result is not None and s.result.cls.lyapunov > 0, 120, "Fig 7's run")
+    assert not s.twin
+    root = dash.sensitivity.__panel__().get_root(Document())
+    s.twin = True
+    d = dash.sensitivity.data
+    figs = {f.title.text: f for f in root.select({"type": Plot})}
+    paths, gap = figs["Both gears, x(t)"], figs["Separation in (x, ẋ), log scale"]
+    for fig in (paths, gap):
+        assert fig.x_range.start <= 0 and fig.x_range.end >= PERIODS, fig.x_range
+    x = np.concatenate([d["a"][0], d["b"][0]])
+    assert paths.y_range.start <= x.min() and paths.y_range.end >= x.max()
+    assert paths.y_range.end - paths.y_range.start < 3 * (x.max() - x.min())
+    assert gap.y_range.start <= d["distance"].min() and gap.y_range.end >= d["distance"].max()
+    labels = [item.label["value"] for legend in gap.select({"type": Legend})
+              for item in legend.items]
+    assert any("λt" in text for text in labels) and not any("{" in t for t in labels), labels

@@ -1,5 +1,6 @@
 """Browser test of the Gearbox tab: the sample's orders, a verdict with a variant computed in
-the background, its CSV downloaded, a bad upload refused with its line, the gearbox heard."""
+the background, its CSV downloaded, a bad upload refused with its line, the gearbox heard; an
+upload just under the 20 MB limit analysed and drawn, one just over it refused."""
 from __future__ import annotations
 
 import pytest
@@ -51,5 +52,68 @@ def test_gearbox_tab_from_sample_to_verdict(page, dashboard_server, tmp_path, mo
     page.locator(".gb-listen button").first.click()
     expect(page.locator(".gb-listen-status").first).to_contain_text("sone", timeout=120_000)
     assert page.locator(".gb-audio audio").first.get_attribute("src")
+    assert errors == []
+    assert dashboard_server["log"].tracebacks() == []
+
+
+UPLOADED_ORDERS = """() => {
+  const ms = [...Bokeh.documents[0]._all_models.values()];
+  if (!ms.some(m => m.text === 'orders of the uploaded file')) return 0;
+  let n = 0;
+  for (const m of ms) {
+    const d = m.data;
+    if (d && d.accel && d.rpm) n = Math.max(n, d.accel.length);
+  }
+  return n;
+}"""
+
+
+def runup_file(path, size: int) -> None:
+    """A run-up 1000 → 3000 rpm at 10 kHz (orders 2, 4, 6) of exactly ``size`` bytes: rows
+    fill it to within one row, a comment line pads the rest."""
+    import io
+    import math
+
+    import numpy as np
+    rows = size // 18
+    t = np.arange(rows) / 10_000.0
+    w0, acc = 1000 * 2 * math.pi / 60, 2000 * 2 * math.pi / 60 / t[-1]
+    psi, omega = w0 * t + 0.5 * acc * t * t, w0 + acc * t
+    speed = omega - sum(a / (k * omega) * np.sin(k * psi - math.radians(p))
+                        for k, a, p in ((2, 200.0, 20.0), (4, 70.0, -60.0), (6, 24.0, 150.0)))
+    buf = io.BytesIO()
+    np.savetxt(buf, np.column_stack([t, speed * 60 / (2 * math.pi)]), fmt=["%.5f", "%.3f"],
+               delimiter=",")
+    head = b"time_s,speed_rpm\n"
+    body = buf.getvalue()
+    body = body[:body.rfind(b"\n", 0, size - len(head) - 2) + 1]  # whole rows, room for "#\n"
+    room = size - len(body) - len(head)
+    path.write_bytes(b"#" + b" " * (room - 2) + b"\n" + head + body)
+    assert path.stat().st_size == size
+
+
+def test_an_upload_up_to_the_limit_draws_its_orders_and_one_over_is_refused(page, dashboard_server,
+                                                                            tmp_path):
+    """A 19.9 MB measurement goes through the page's connection (over Bokeh's default message
+    limit once base64-encoded), is analysed and its orders drawn; a 20.1 MB one is refused at
+    once, naming the 20 MB limit, and the page keeps its connection."""
+    near, over = tmp_path / "near.csv", tmp_path / "over.csv"
+    runup_file(near, 19_900_000)
+    runup_file(over, 20_100_000)
+    errors = open_dashboard(page, dashboard_server)
+    page.locator(".bk-tab", has_text="Gearbox").first.click()
+    upload = page.locator(".gb-measurement input[type=file]").first
+    upload.set_input_files(str(near))
+    status = page.locator(".gb-measure-status").first
+    expect(status).to_contain_text("the uploaded file:", timeout=300_000)
+    expect(status).to_contain_text("rpm bins")
+    page.wait_for_function(f"() => ({UPLOADED_ORDERS})() >= 15", timeout=120_000)
+    upload.set_input_files(str(over))
+    refusal = page.locator(".msg-gearbox-measure").first
+    expect(refusal).to_contain_text("20100000 bytes", timeout=120_000)
+    expect(refusal).to_contain_text("up to 20000000 bytes (20 MB)")
+    # still connected: the page answers a new request
+    page.locator(".gb-sample button").first.click()
+    expect(status).to_contain_text("sample run-up", timeout=120_000)
     assert errors == []
     assert dashboard_server["log"].tracebacks() == []

@@ -5,12 +5,19 @@ more digits than Python converts, NaN and infinities, nesting deeper than a pars
 values too long to read.  The session must be built, draw its run (``state.result``), and say
 beside the key's control (or the URL's) that the value was not used.  The served page is
 checked too: such a link answers 200, not a server error.
+
+A number of any size, from beyond every key's range up to 10⁴⁰⁰⁰ either way, written as an
+integer, with a decimal point or with an exponent, is read as the number it is: every key
+refuses it beside its control, naming the allowed range (never calling it infinite), and the
+page draws its run.
 """
 from __future__ import annotations
 
+import math
 import urllib.parse
 import urllib.request
 
+import param
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -18,7 +25,9 @@ from panel.io.location import Location
 
 from app.main import configure
 from app.session import Session
-from app.state import GEARBOX_URL_KEYS, MAP_URL_KEYS, URL_KEYS
+from app.pinning import PIN_KEYS, PIN_PHYSICAL_KEYS, parse_pin
+from app.state import (GEARBOX_URL_KEYS, MAP_URL_KEYS, URL_KEYS, ExplorerState, GearboxSettings,
+                       MapSettings, range_text, rejection)
 
 configure()
 #: Every URL key: the state's, the Maps tab's settings' and the Gearbox tab's settings'.
@@ -36,6 +45,88 @@ hostile = st.one_of(
 
 def opened(search: str) -> Session:
     return Session(location=Location(search=search))
+
+
+#: The largest bound of any numeric URL key: every key refuses a number beyond it.
+LIMIT = max(abs(b) for cls in (ExplorerState, MapSettings, GearboxSettings)
+            for p in cls.param.objects().values() if isinstance(p, param.Number)
+            for b in p.bounds)
+#: Fewest digits of an integer beyond :data:`LIMIT`.
+DIGITS = len(str(math.ceil(LIMIT))) + 1
+
+
+def _of_digits(n: int, most: int = 4001):
+    return st.integers(10 ** (n - 1), min(10 ** n - 1, 10 ** (most - 1)))
+
+
+def beyond_every_range(most: int = 4001):
+    """Numbers from beyond every key's range up to ``10**(most-1)``, either sign, as a link
+    writes them: ``1000…0``, ``-1000…0.5``, ``2.5e400``."""
+    sign = st.sampled_from(["", "-"])
+    whole = st.integers(DIGITS, most).flatmap(lambda n: _of_digits(n, most))
+    return st.one_of(
+        st.builds(lambda s, n: f"{s}{n}", sign, whole),
+        st.builds(lambda s, n, d: f"{s}{n}.{d}", sign, whole, st.integers(0, 99)),
+        st.builds(lambda s, m, e: f"{s}{m}e{e}", sign,
+                  st.sampled_from(["1", "2.5", "9.99", "0.5"]), st.integers(DIGITS, most)),
+    )
+
+
+NEUTRAL = opened("")
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(key=st.sampled_from(KEYS), value=beyond_every_range())
+def test_a_number_of_any_size_in_any_key_draws_the_page_and_names_the_range(key, value):
+    """A number beyond every range, up to 10⁴⁰⁰⁰, under any key: the run is drawn, the value is
+    refused beside the key's control and, for a numeric key, the message gives its range."""
+    session = opened("?" + urllib.parse.urlencode({key: value}))
+    assert session.state.result is not None
+    owner, name = session._owner(key)
+    assert name != "url"
+    text = owner.messages.get(name, "")
+    assert text.startswith("URL: ") and len(text) < 400, (key, value[:20], owner.messages)
+    if isinstance(owner.param[name], param.Number):
+        assert f"allowed {range_text(owner, name)}" in text, (key, value[:20], text)
+        assert "finite" not in text and "inf" not in text, (key, value[:20], text)
+    neutral = NEUTRAL._owner(key)[0]
+    assert getattr(owner, name) == getattr(neutral, name)
+
+
+@pytest.mark.parametrize("value, shown", [(10 ** 400, "a whole number of about 401 digits"),
+                                           (-(10 ** 5000), "a negative whole number of about "
+                                                           "5001 digits")],
+                         ids=["401 digits", "-5001 digits"])
+def test_an_int_too_large_for_a_float_is_refused_with_its_size_and_range(value, shown):
+    """An int no float holds (which Python will not even print past 4300 digits) is refused
+    with its size and the allowed range, whoever sets it."""
+    s = ExplorerState()
+    with pytest.raises(ValueError):
+        s.lam = value
+    assert rejection(s, "lam", value) == (f"Λ = {shown} is outside the allowed range; "
+                                          f"allowed (1e-06, 10000]. Kept 3.3.")
+
+
+NUMERIC_PIN_KEYS = [k for k in (*PIN_KEYS, *PIN_PHYSICAL_KEYS)
+                    if isinstance(ExplorerState.param[k], param.Number)]
+
+
+@settings(max_examples=60, deadline=None)
+@given(key=st.sampled_from(NUMERIC_PIN_KEYS), value=beyond_every_range(most=1400))
+def test_a_pin_holding_a_number_of_any_size_names_the_range(key, value):
+    """A pin item holding a number beyond every range is refused, naming its range."""
+    with pytest.raises(ValueError) as err:
+        parse_pin(f"{key}:{value}")
+    text = str(err.value)
+    assert f"allowed {range_text(ExplorerState, key)}" in text and ".." not in text, text
+    assert "finite" not in text and "inf" not in text and len(text) < 300, text
+
+
+def test_a_310_digit_lam_in_a_pin_link_is_said_beside_the_pin():
+    """The link's pin with a 310-digit Λ: the run is drawn and the pin's message gives Λ's range."""
+    s = opened("?pin=" + urllib.parse.quote("lam:1" + "0" * 309)).state
+    assert s.result is not None
+    assert "allowed (1e-06, 10000]" in s.messages["pinned"]
 
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -68,8 +159,10 @@ def test_garbage_for_continued_from_has_a_message():
 
 
 def test_a_link_with_too_many_digits_is_served(dashboard_server):
-    """The served page answers 200 for a value of 5000 digits (Panel's int() refused it: 500)."""
-    url = dashboard_server["url"] + "/?lam=" + "1" * 5000 + "&periods=Infinity"
+    """The served page answers 200 for values of 310 and 5000 digits (the first overflowed a
+    float in its message: an empty page; Panel's int() refused the second: 500)."""
+    url = (dashboard_server["url"] + "/?lam=1" + "0" * 309 + "&map_x_num=" + "1" * 5000
+           + "&periods=Infinity")
     with urllib.request.urlopen(url, timeout=120) as resp:
         assert resp.status == 200
         assert b"Rattle Explorer" in resp.read()

@@ -70,7 +70,10 @@ class GearboxView(pn.viewable.Viewer):
                                                       sizing_mode="stretch_width")
         self.sample_button = pn.widgets.Button(label="Use the sample run-up (synthetic)",
                                                css_classes=["gb-sample"], sizing_mode="stretch_width")
-        self.measure_status = pn.pane.HTML(text_html("No measurement yet."), css_classes=["gb-measure-status"])
+        # the measurement's job: progress, Cancel and status (``gb-measure-progress``, ...)
+        self.measure_panel = JobPanel(self.jobs, "gearbox-measure", "gb-measure")
+        self.measure_panel.say("No measurement yet.")
+        self.measure_status = self.measure_panel.status
         self.table = pn.widgets.Tabulator(DEFAULT_GEARS.copy(), show_index=False, height=170,
                                           sizing_mode="stretch_width", css_classes=["gb-gears"])
         self.add_button = pn.widgets.Button(label="Add gear", css_classes=["gb-add"])
@@ -97,6 +100,8 @@ class GearboxView(pn.viewable.Viewer):
         self.measurement_input.param.watch(self._on_measurement, "value")
         self.toml_input.param.watch(self._on_toml, "value")
         self.sample_button.on_click(lambda e: self.measure(None))
+        self.measure_panel.cancel_button.on_click(
+            lambda e: self.measure_panel.stop("Analysis cancelled: the measurement shown is kept."))
         self.add_button.on_click(lambda e: self._add_gear())
         self.remove_button.on_click(lambda e: self._remove_gear())
         self.run_button.on_click(lambda e: self.run())
@@ -133,7 +138,9 @@ class GearboxView(pn.viewable.Viewer):
         controls = pn.Column(
             pn.pane.Markdown("**1. Measurement** (`time_s`, `speed_rpm`; up to "
                              f"{work.MAX_MEASUREMENT_BYTES // 1_000_000} MB)"),
-            self.measurement_input, self.sample_button, message(st, "gearbox-measure"), self.measure_status,
+            self.measurement_input, self.sample_button, message(st, "gearbox-measure"),
+            pn.Row(self.measure_panel.progress, self.measure_panel.cancel_button,
+                   sizing_mode="stretch_width"), self.measure_status,
             pn.Row(field("engine_order", "gb-order"), field("harmonics", "gb-harmonics"),
                    field("rpm_step", "gb-rpm-step"), sizing_mode="stretch_width"),
             pn.pane.Markdown("**2. Gears** (edit the table, or upload a GEARBOX.toml)"),
@@ -168,7 +175,8 @@ class GearboxView(pn.viewable.Viewer):
         if data is None:
             return None
         if len(data) > limit:
-            self.state.say(where, f"the file has {len(data)} bytes; the allowed size is up to {limit} bytes")
+            self.state.say(where, f"the file has {len(data)} bytes; the allowed size is up to "
+                                  f"{limit} bytes ({limit / 1e6:g} MB)")
             return None
         self.state.clear(where)
         return bytes(data)
@@ -179,15 +187,28 @@ class GearboxView(pn.viewable.Viewer):
             self.measure(data)
 
     def measure(self, data: bytes | None) -> None:
-        """Parse an uploaded measurement (``None``: the sample) in a worker."""
+        """Parse an uploaded measurement (``None``: the sample) in a worker, with progress."""
         self.state.clear("gearbox-measure")
         what = "the sample run-up" if data is None else f"the uploaded file ({len(data)} bytes)"
-        self.measure_status.object = text_html(f"Analysing {what}…")
-        self.jobs.submit("gearbox-measure", work.measurement,
-                         (data, self._orders(), self.settings.rpm_step), time_limit=120.0,
-                         on_done=self._measured, on_error=lambda m: self._failed("gearbox-measure", m))
+        self.measure_panel.submit(object(), work.measurement,
+                                  (data, self._orders(), self.settings.rpm_step),
+                                  f"Reading and analysing {what}…", work.MEASUREMENT_JOB_LIMIT,
+                                  on_done=self._measured,
+                                  on_error=lambda m: self._failed("gearbox-measure", self._file_error(m)))
+
+    @staticmethod
+    def _file_error(msg: str) -> str:
+        """A measurement job's failure, told about the file: the pool's own time limit speaks
+        of compute jobs."""
+        if msg.startswith("stopped after"):
+            return (f"the uploaded file took too long to read and analyse (over "
+                    f"{work.MEASUREMENT_SECONDS:g} s, the limit for a measurement on this server); "
+                    "upload a shorter file or choose a wider rpm step")
+        return msg
 
     def _measured(self, omap: Any) -> None:
+        if omap is None:  # cancelled
+            return
         self.order_map, self.constant = omap, None
         self.measure_status.object = text_html(
             f"{omap.source}: {omap.rpm.size} rpm bins from {omap.rpm[0]:.0f} to {omap.rpm[-1]:.0f} "

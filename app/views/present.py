@@ -28,6 +28,9 @@ class PresentView(pn.viewable.Viewer):
     presenting (the header is a root of the page: its class reaches the template's stylesheet)."""
 
     state = param.ClassSelector(class_=ExplorerState)
+    header = param.ClassSelector(class_=pn.Row, default=None, doc=(
+        "the row the button and sliders go in: the page's header root, when it was drawn "
+        "before this view was built"))
 
     def __init__(self, **params: Any):
         super().__init__(**params)
@@ -41,7 +44,9 @@ class PresentView(pn.viewable.Viewer):
         self.slider = {n: self._slider(n) for n in ESSENTIAL}
         self.sliders = pn.Row(*self.slider.values(),
                               css_classes=["present-sliders"], visible=s.present, margin=(0, 10))
-        self.header = pn.Row(self.button, self.sliders, margin=0)
+        if self.header is None:
+            self.header = pn.Row(margin=0)
+        self.header[:] = [self.button, self.sliders]
         s.param.watch(self._follow, "present")
         for n in ESSENTIAL:
             s.param.watch(self._follow_value, n)

@@ -31,6 +31,8 @@ from ..ui.widgets import Choice, Field, message
 PERIODS, SAMPLES = 40, 40
 #: The smallest distance drawn on the log scale (the floor of double precision).
 FLOOR = 1e-16
+#: The legend's name for the slope: plain text, since a legend does not typeset mathematics.
+SLOPE_LABEL = "exp(λt), the run's λ"
 
 
 def twin_runs(state: ExplorerState) -> dict[str, Any] | None:
@@ -115,14 +117,17 @@ class SensitivityView(pn.viewable.Viewer):
         self.text.object = twin_text(self.data)
         self.revision += 1
 
+    # Each curve is framewise, not only the overlay: HoloViews re-frames an overlay from its
+    # elements' own option, so an overlay first drawn empty (the twin off) kept [0, 1] for ever.
     def _paths(self, revision: int = 0) -> hv.Overlay:
         d = self.data
         t = d["t"] if d else np.zeros(0)
         xa = d["a"][0] if d else np.zeros(0)
         xb = d["b"][0] if d else np.zeros(0)
-        return (hv.Curve((t, xa), "t / period", "x", label="first gear").opts(color=ACTIVE_COLOR)
+        return (hv.Curve((t, xa), "t / period", "x", label="first gear").opts(
+                    color=ACTIVE_COLOR, framewise=True)
                 * hv.Curve((t, xb), "t / period", "x", label="twin").opts(
-                    color=REVERSE_COLOR, line_dash="dashed")).opts(
+                    color=REVERSE_COLOR, line_dash="dashed", framewise=True)).opts(
             hv.opts.Overlay(title="Both gears, x(t)", responsive=True, height=250, tools=TOOLS,
                             legend_position="top_left", framewise=True,
                             hooks=[save_as(lambda: "rattle_twin_paths")]))
@@ -135,9 +140,9 @@ class SensitivityView(pn.viewable.Viewer):
         slope = (t, gap[0] * np.exp(lam * t * TWO_PI)) if d and math.isfinite(lam) and lam > 0 \
             else (np.zeros(0), np.zeros(0))
         return (hv.Curve((t, gap), "t / period", "separation", label="|twin − first|").opts(
-                    color="#222222", logy=True, hooks=[named_glyph("twin_gap")])
-                * hv.Curve(slope, "t / period", "separation", label="e^{λt}, the run's λ").opts(
-                    color="#8e44ad", line_dash="dotted", logy=True)).opts(
+                    color="#222222", logy=True, framewise=True, hooks=[named_glyph("twin_gap")])
+                * hv.Curve(slope, "t / period", "separation", label=SLOPE_LABEL).opts(
+                    color="#8e44ad", line_dash="dotted", logy=True, framewise=True)).opts(
             hv.opts.Overlay(title="Separation in (x, ẋ), log scale", responsive=True, height=250,
                             tools=TOOLS, logy=True, legend_position="bottom_right",
                             framewise=True, hooks=[save_as(lambda: "rattle_twin_separation")]))

@@ -1,8 +1,9 @@
 """The Gearbox tab's work, run in the job pool's worker processes: uploads parsed, verdicts
 computed, the gearbox's sound rendered, the report drawn.
 
-Uploaded bytes are untrusted: they are parsed here, in a worker under the job's time limit,
-never in the server process. A measurement is written to a temporary file of this module's
+Uploaded bytes are untrusted: they are parsed here, in a worker, never in the server process.
+A measurement has bounds of its own (:data:`MEASUREMENT_SECONDS`, :data:`MEASUREMENT_MAX_ROWS`),
+apart from the compute jobs' limits, and reports its progress. A measurement is written to a temporary file of this module's
 own naming (``rattle-upload-*``), read whole and checked by
 :meth:`rattle_core.model.orders.OrderMap.from_csv`, and deleted; no name taken from an upload
 ever reaches the file system. A gearbox text is parsed with no folder to look in, so it can
@@ -16,6 +17,7 @@ import io
 import math
 import os
 import tempfile
+import time
 from typing import Any
 
 import numpy as np
@@ -25,24 +27,52 @@ from .jobs import cancelled, report
 #: Largest upload taken [bytes]: a measurement, and a gearbox file.
 MAX_MEASUREMENT_BYTES = 20_000_000
 MAX_TOML_BYTES = 1_000_000
+#: An uploaded measurement's own bounds, apart from the compute jobs' limits: the seconds its
+#: reading and order analysis may take, and its samples (which bound their memory, about
+#: 350 bytes a sample: 700 MB at most).
+MEASUREMENT_SECONDS = 60.0
+MEASUREMENT_MAX_ROWS = 2_000_000
+#: The measurement job's limit in the pool: past it the worker is killed, a backstop only,
+#: since the analysis stops itself at MEASUREMENT_SECONDS.
+MEASUREMENT_JOB_LIMIT = MEASUREMENT_SECONDS + 30.0
 #: Seconds of gearbox sound rendered for listening.
 LISTEN_SECONDS = 2.0
 
 
 def measurement(data: bytes | None, orders: tuple, rpm_step: float) -> Any:
-    """The order map of uploaded bytes (``None``: the shipped synthetic run-up)."""
+    """The order map of uploaded bytes (``None``: the shipped synthetic run-up), with progress;
+    ``None`` when the job is cancelled.  An upload over :data:`MAX_MEASUREMENT_BYTES` or
+    :data:`MEASUREMENT_MAX_ROWS`, or one whose analysis outlasts :data:`MEASUREMENT_SECONDS`,
+    is refused with a message about the file."""
     from ..core import SAMPLE_RUNUP, OrderMap
     if data is None:
-        return OrderMap.from_csv(SAMPLE_RUNUP, orders, rpm_step, label="the sample run-up (synthetic)")
+        return OrderMap.from_csv(SAMPLE_RUNUP, orders, rpm_step, label="the sample run-up (synthetic)",
+                                 progress=report, cancel=cancelled)
     if len(data) > MAX_MEASUREMENT_BYTES:
-        raise ValueError(f"the upload has {len(data)} bytes; the allowed size is up to "
-                         f"{MAX_MEASUREMENT_BYTES}")
+        raise ValueError(f"the uploaded file has {len(data)} bytes; the allowed size is up to "
+                         f"{MAX_MEASUREMENT_BYTES} bytes ({MAX_MEASUREMENT_BYTES / 1e6:g} MB)")
+    deadline = time.monotonic() + MEASUREMENT_SECONDS
+    late: list[bool] = []
+
+    def stop() -> bool:
+        if time.monotonic() > deadline:
+            late.append(True)
+        return bool(late) or cancelled()
     suffix = ".csv.gz" if data[:2] == b"\x1f\x8b" else ".csv"
     fd, path = tempfile.mkstemp(prefix="rattle-upload-", suffix=suffix)
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(data)
-        return OrderMap.from_csv(path, orders, rpm_step, label="the uploaded file")
+        return OrderMap.from_csv(path, orders, rpm_step, label="the uploaded file",
+                                 progress=report, cancel=stop, max_rows=MEASUREMENT_MAX_ROWS)
+    except Exception:
+        if late:
+            raise ValueError(f"the uploaded file took over {MEASUREMENT_SECONDS:g} s to read and "
+                             "analyse, the limit for a measurement on this server; upload a "
+                             "shorter file or choose a wider rpm step") from None
+        if cancelled():  # nobody waits for this result any more
+            return None
+        raise
     finally:
         os.unlink(path)
 
@@ -55,9 +85,12 @@ def gearbox_text(data: bytes, order_map: Any) -> Any:
         raise ValueError(f"the upload has {len(data)} bytes; the allowed size is up to {MAX_TOML_BYTES}")
     try:
         text = data.decode("utf-8")
-    except UnicodeDecodeError:
-        raise ValueError("the gearbox file is not UTF-8 text") from None
-    return Gearbox.from_text(text, base_dir=None, measurement=order_map)
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"the uploaded gearbox file, byte {exc.start}: the file is not UTF-8 "
+                         "text") from None
+    # the upload's own name is not used: it is the user's text and could hold anything
+    return Gearbox.from_text(text, base_dir=None, measurement=order_map,
+                             source="the uploaded gearbox file")
 
 
 def verdicts(gearbox: Any, variant: Any, rpm: np.ndarray, transient: int, record: int,

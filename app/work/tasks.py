@@ -89,11 +89,13 @@ def regime_map(params: RattleParams, phys: Any, x_name: str, x_values: np.ndarra
 
 def noise_check(params: RattleParams, runs: int, periods: int, transient: int) -> dict:
     """The noise sensitivity of ``params`` (``rattle_core.noise_sensitivity`` at the default
-    levels and the run's own), as plain data: the verdict, its reasons and one row per level."""
+    levels and the run's own), as plain data: the verdict, its reasons, one row per level, and
+    each attractor reached with its runs, estimates and own verdict at every level."""
     from ..core import NOISE_LEVELS as DEFAULT_LEVELS
-    from ..core import noise_sensitivity
+    from ..core import attractor_verdicts, noise_sensitivity
     levels = sorted(set(DEFAULT_LEVELS) | {params.noise} - {0.0})
     rep = noise_sensitivity(params, levels, runs=runs, periods=periods, transient=transient,
                             progress=report, cancel=cancelled)
     return {"sensitive": rep.sensitive, "describe": rep.describe(), "reasons": list(rep.reasons),
-            "table": rep.table.to_dict("list"), "levels": list(rep.levels)}
+            "table": rep.table.to_dict("list"), "levels": list(rep.levels), "runs": runs,
+            "attractors": attractor_verdicts(rep.levels, [r.attractors for r in rep.results])}

@@ -14,16 +14,13 @@ from __future__ import annotations
 import argparse
 import sys
 
-from rattle_core.analysis import continuation as cont
-from rattle_core.analysis.continuation.plane import _Plane
-from rattle_core.paper.drawing import atlas_png
-from rattle_core.store.exports import TABLE_SUFFIXES, write_table
-
 from ..common import (CLIError, Progress, add_command, axis_label, check_output,
-                      distinct_outputs, info, label, meta)
+                      distinct_outputs, finite, info, label, meta)
 from ..options import add_model_options, build_params
 
 HELP = "follow a bifurcation in a second parameter: its curve to CSV"
+#: Most periods simulated before the orbit of START simulate is taken (find_orbit's bound).
+MAX_TRANSIENT = 1_000_000
 
 STARTS = ("c", "c-unstable", "simulate", "contact")
 KINDS = {"pd": "period_doubling", "period_doubling": "period_doubling", "fold": "fold",
@@ -102,6 +99,10 @@ def run(args: argparse.Namespace) -> int:
     bifurcation's defining condition, solved exactly, with the codimension-two points where
     the curve meets another. Writes OUT (one row per point: both parameters, impulses,
     multipliers) and OUT_codim2, as .csv or .parquet; --png draws the curve."""
+    from rattle_core.analysis import continuation as cont
+    from rattle_core.analysis.continuation.plane import _Plane
+    from rattle_core.paper.drawing import atlas_png
+    from rattle_core.store.exports import TABLE_SUFFIXES, write_table
     import pandas as pd
 
     out = check_output(args.out, TABLE_SUFFIXES, "--out")
@@ -112,6 +113,10 @@ def run(args: argparse.Namespace) -> int:
     start, param, direction, kind, nth = parse_spec(args.spec)
     bounds = _pair(args.bounds, "--bounds")
     bounds1 = _pair(args.bounds1, "--bounds1")
+    finite(args.x0, "--x0")
+    if not 0 <= args.transient <= MAX_TRANSIENT:
+        raise CLIError(f"--transient {args.transient} is outside the allowed range "
+                       f"[0, {MAX_TRANSIENT}]")
     if not 1 <= args.max_points <= cont.MAX_CURVE_POINTS:
         raise CLIError(f"--max-points {args.max_points} is outside the allowed range "
                        f"[1, {cont.MAX_CURVE_POINTS}]")
@@ -164,6 +169,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _find(params, start, param, direction, kind, nth, bounds1, physical, args):
     """The ``nth`` bifurcation of ``kind`` on the branch of the start orbit."""
+    from rattle_core.analysis import continuation as cont
     if start == "simulate":
         orb = cont.find_orbit(params, x0=args.x0, transient=args.transient)
     else:

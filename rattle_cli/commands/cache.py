@@ -4,8 +4,6 @@ from __future__ import annotations
 import argparse
 import time
 
-from rattle_core.store import cache
-
 from ..common import add_command
 
 HELP = "show or clear the disk cache of sweeps and maps"
@@ -25,6 +23,7 @@ def run(args: argparse.Namespace) -> int:
     """Sweeps and maps are cached on disk ($RATTLE_CACHE_DIR, else $XDG_CACHE_HOME/rattle-explorer,
     else ~/.cache/rattle-explorer), at most RATTLE_CACHE_SIZE_MB megabytes (default
     1024); the least recently used entries go first."""
+    from rattle_core.store import cache
     folder = cache.cache_dir()
     if args.action == "clear":
         n, freed = cache.clear(folder)

@@ -13,10 +13,6 @@ from __future__ import annotations
 import argparse
 import sys
 
-from rattle_core.analysis import continuation as cont
-from rattle_core.paper.drawing import continuation_png
-from rattle_core.store.exports import TABLE_SUFFIXES, write_table
-
 from ..common import (CLIError, Progress, add_command, axis_label, check_output,
                       distinct_outputs, info, label, meta)
 from ..options import add_model_options, build_params
@@ -68,6 +64,9 @@ def run(args: argparse.Namespace) -> int:
     and end of sticking.  Writes OUT (one row per branch point: value, stability, Floquet
     multipliers, ...), OUT_impacts (one row per impact per point) and OUT_bifurcations, as .csv
     or .parquet; --png draws the branches."""
+    from rattle_core.analysis import continuation as cont
+    from rattle_core.paper.drawing import continuation_png
+    from rattle_core.store.exports import TABLE_SUFFIXES, write_table
     import pandas as pd
 
     out = check_output(args.out, TABLE_SUFFIXES, "--out")

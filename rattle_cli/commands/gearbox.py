@@ -5,14 +5,6 @@ import argparse
 import contextlib
 import math
 
-import numpy as np
-
-from rattle_core.batch.executor import dask_session
-from rattle_core.model.gearbox import Gearbox
-from rattle_core.paper.drawing import verdict_png
-from rattle_core.store.exports import write_table
-from rattle_core.store.verdicts import cached_verdict
-
 from ..common import CLIError, Progress, add_command, check_output, distinct_outputs, info
 
 HELP = "which loose gears rattle, from which rpm, how loud: GEARBOX.toml to a verdict CSV"
@@ -20,6 +12,7 @@ HELP = "which loose gears rattle, from which rpm, how loud: GEARBOX.toml to a ve
 
 def rpm_range(text: str) -> np.ndarray:
     """``START:STOP:NUM`` as evenly spaced speeds."""
+    import numpy as np
     parts = str(text).split(":")
     try:
         if len(parts) != 3:
@@ -66,6 +59,13 @@ def run(args: argparse.Namespace) -> int:
     """Run every gear of GEARBOX.toml at every speed as one batch (cached on disk): its regime,
     impacts per second, rattle intensity, the loudness (ISO 532-1, sone) and sharpness
     (DIN 45692, acum) of its rattle and of the whole gearbox, and the speed from which it rattles."""
+    if not 1 <= args.workers <= 256:
+        raise CLIError(f"--workers {args.workers} is outside the allowed range [1, 256]")
+    from rattle_core.batch.executor import dask_session
+    from rattle_core.model.gearbox import Gearbox
+    from rattle_core.paper.drawing import verdict_png
+    from rattle_core.store.exports import write_table
+    from rattle_core.store.verdicts import cached_verdict
     out = check_output(args.out, (".csv", ".parquet"), "--out")
     png = None
     if args.png is not None:

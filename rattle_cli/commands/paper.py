@@ -3,8 +3,6 @@ from __future__ import annotations
 
 import argparse
 
-from rattle_core.paper import figures
-
 from ..common import Progress, add_command, check_output_dir, info
 
 HELP = "reproduce the paper's Figures 2 to 8 into a directory"
@@ -19,6 +17,7 @@ def run(args: argparse.Namespace) -> int:
     """Write pictures matching the paper's Figures 2 to 8 (bifurcation diagrams, time histories,
     Poincaré maps) and phase_convention.md into a directory.  The diagrams come from the
     shipped assets while they match the solver."""
+    from rattle_core.paper import figures
     out = check_output_dir(args.out, "--out")
     out.mkdir(exist_ok=True)
     progress = Progress("paper figures", enabled=not args.quiet, unit="%")

@@ -3,9 +3,6 @@ from __future__ import annotations
 
 import argparse
 
-from rattle_core import classify, simulate, statistics
-from rattle_core.store.exports import TABLE_SUFFIXES, history_frame, impacts_frame, write_table
-
 from ..common import (CLIError, add_command, check_output, distinct_outputs, info, label, meta,
                       run_parent)
 from ..options import add_model_options, build_params
@@ -36,6 +33,8 @@ def run(args: argparse.Namespace) -> int:
     motion sampled uniformly (t, x, v, y, y_plus_j, contact none/active/reverse; plus t_s,
     x_um, v_mps, y_um in physical units).  The format follows the extension (.csv or
     .parquet; Parquet files carry the parameters as metadata)."""
+    from rattle_core import classify, simulate, statistics
+    from rattle_core.store.exports import TABLE_SUFFIXES, history_frame, impacts_frame, write_table
     if args.impacts is None and args.history is None and not args.stats:
         raise CLIError("simulate: give --impacts FILE and/or --history FILE (.csv or .parquet), "
                        "or --stats")

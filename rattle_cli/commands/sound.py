@@ -3,11 +3,6 @@ from __future__ import annotations
 
 import argparse
 
-from rattle_core import simulate
-from rattle_core.analysis import sound
-
-from rattle_core.model.params import check_range
-
 from ..common import CLIError, add_command, check_output, info, label, run_parent
 from ..options import add_model_options, build_params
 
@@ -34,6 +29,9 @@ def run(args: argparse.Namespace) -> int:
     """Synthesise the rattle: every impact rings the gearbox housing's modes in proportion to its
     impulse (rattle_core.analysis.sound).  In physical units the engine speed sets the time
     scale."""
+    from rattle_core import simulate
+    from rattle_core.analysis import sound
+    from rattle_core.model.params import check_range
     out = check_output(args.out, (".wav",), "--out")
     params, phys = build_params(args)
     if phys is not None and args.excitation_hz is not None:

@@ -7,27 +7,11 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from rattle_core.analysis.vocabulary import LETTERS
-from rattle_core.batch.executor import dask_session
-from rattle_core.batch.plan import plan_map
-from rattle_core.batch.sweep import check_budget, sweep, validate_sweep_args
-from rattle_core.model.gearbox import Excitation
-from rattle_core.model.orders import OrderMap
-from rattle_core.model.units import rpm_sweep
-from rattle_core.paper.drawing import map_png, sweep_png
-from rattle_core.store.cache import cached_sweep
-from rattle_core.store.exports import TABLE_SUFFIXES, sweep_frames, write_table
-from rattle_core.store.files import save_map, save_result
-from rattle_core.store.requests import run_map
-
 from ..common import (CLIError, Progress, add_command, axis_label, check_output,
                       distinct_outputs, finite, info, label, user_permissions)
 from ..options import add_model_options, build_params, float_list
 
 HELP = "bifurcation diagram (impulses against a parameter) to a file plus PNG"
-SWEEP_SUFFIXES = (".npz",) + TABLE_SUFFIXES
 
 
 def add_parser(sub) -> None:
@@ -86,6 +70,7 @@ def add_parser(sub) -> None:
 
 
 def _values(args: argparse.Namespace, suffix: str = "", default_num: int = 200) -> np.ndarray:
+    import numpy as np
     values, start, stop, num = (getattr(args, f"{k}{suffix}") for k in ("values", "start", "stop", "num"))
     if values is not None:
         if start is not None or stop is not None or num is not None:
@@ -119,6 +104,7 @@ def _scheduler(args: argparse.Namespace) -> str | None:
 
 def _run_on(args: argparse.Namespace, scheduler: str | None, job) -> Any:
     """``job(executor)`` on the Dask cluster asked for (or here), closing it afterwards."""
+    from rattle_core.batch.executor import dask_session
     with contextlib.ExitStack() as stack:
         try:
             executor = stack.enter_context(dask_session(scheduler, args.workers))
@@ -136,16 +122,25 @@ def run(args: argparse.Namespace) -> int:
     ($RATTLE_CACHE_DIR; see 'rattle cache').  One request may run up to 1e8 forcing periods
     (values × (transient + record)), 5 to 10 minutes on two cores
     (rattle_core.batch.sweep.PERIOD_BUDGET)."""
+    from rattle_core.batch.sweep import sweep, validate_sweep_args
+    from rattle_core.model.units import rpm_sweep
+    from rattle_core.paper.drawing import sweep_png
+    from rattle_core.store.cache import cached_sweep
+    from rattle_core.store.exports import TABLE_SUFFIXES, sweep_frames, write_table
+    from rattle_core.store.files import save_result
+    suffixes = (".npz",) + TABLE_SUFFIXES
     if not 1 <= args.workers <= 256:
         raise CLIError(f"--workers {args.workers} is outside the allowed range [1, 256]")
-    out = check_output(args.out, SWEEP_SUFFIXES, "--out")
+    if args.no_png and args.png is not None:
+        raise CLIError(f"--no-png and --png {args.png!r} contradict each other; give one")
+    out = check_output(args.out, suffixes, "--out")
     png = summary = None
     if not args.no_png:
         png = (check_output(args.png, (".png",), "--png") if args.png is not None else
                check_output(str(out.with_suffix(".png")), (".png",), "the PNG beside --out (--no-png: none)"))
     if out.suffix.lower() != ".npz":
         summary = check_output(str(out.with_name(out.stem + "_summary" + out.suffix)),
-                               SWEEP_SUFFIXES, "the summary beside --out")
+                               suffixes, "the summary beside --out")
     distinct_outputs(out, png, summary)
     for flag in ("x0", "v0"):
         finite(getattr(args, flag), f"--{flag.replace('_', '-')}")
@@ -241,6 +236,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _follow(args: argparse.Namespace, phys):
     """The excitation that follows engine speed (``--orders-from``), or None."""
+    from rattle_core.model.gearbox import Excitation
+    from rattle_core.model.orders import OrderMap
     if args.orders_from is None:
         return None
     if phys is None:
@@ -256,6 +253,14 @@ def _follow(args: argparse.Namespace, phys):
 def _run_map(args: argparse.Namespace, out: Path, png: Path | None, params, phys,
              follow=None) -> int:
     """A 2-D regime/intensity map, or basins of attraction, to a file plus PNG."""
+    import numpy as np
+    from rattle_core.analysis.vocabulary import LETTERS
+    from rattle_core.batch.plan import plan_map
+    from rattle_core.batch.sweep import check_budget
+    from rattle_core.paper.drawing import map_png
+    from rattle_core.store.exports import write_table
+    from rattle_core.store.files import save_map
+    from rattle_core.store.requests import run_map
     names = (args.param, args.param2)
     if args.mode != "fresh":
         raise CLIError("2-D maps start every point from the same state; drop --mode continuation")

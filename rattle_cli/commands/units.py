@@ -3,8 +3,6 @@ from __future__ import annotations
 
 import argparse
 
-from rattle_core.analysis.vocabulary import physical_table
-
 from ..common import add_command, info, label
 from ..options import add_model_options, build_params
 
@@ -18,6 +16,7 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Convert physical inputs to Λ, j, h_k, φ_k and print both sets."""
+    from rattle_core.analysis.vocabulary import physical_table
     params, phys = build_params(args)
     if phys is None:
         info(args, f"dimensionless: {label(params, phys)}, v_stick = {params.v_stick:g}")

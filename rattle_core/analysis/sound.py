@@ -53,6 +53,7 @@ import os
 from typing import BinaryIO, Iterable, Literal, Sequence
 
 import numpy as np
+from numba import njit
 
 from ..model.params import check_bool, check_range
 from ..solver.trajectory import Trajectory
@@ -70,7 +71,7 @@ MAX_DURATION = 600.0  # s
 #: Most samples one signal may have (600 s at 48 kHz fits; 87 s at 384 kHz): the signal is
 #: held in memory, 8 bytes a sample.
 MAX_SAMPLES = 2**25
-#: Samples filtered at once: the filter's complex work arrays stay this long.
+#: Samples rendered at once: the complex work array of the impulses stays this long.
 _BLOCK = 2**20
 EXCITATION_HZ_RANGE = (0.0, 10_000.0)  # open at 0
 
@@ -215,27 +216,47 @@ def render(impact_times: Sequence[float], amplitudes: Sequence[float], duration:
     dt = 1.0 / sample_rate
     keep = (t >= 0.0) & (t < n * dt) & (a != 0.0)
     t, a = t[keep], a[keep]
-    out = np.zeros(n)
     if t.size == 0:
-        return out
+        return np.zeros(n)
     # First sample at or after each impact; the impact's sub-sample offset goes into the phase.
     k = np.minimum(np.ceil(t * sample_rate - 1e-9).astype(np.int64), n - 1)
     lag = np.maximum(k * dt - t, 0.0)
-    order = np.argsort(k, kind="stable")  # the blocks below find their impacts by bisection
+    order = np.argsort(k, kind="stable")  # the kernel walks the impacts in sample order
     k, lag, a = k[order], lag[order], a[order]
-    from scipy.signal import lfilter  # lazily: scipy.signal costs a second at start-up
-    for mode in modes:
+    kicks = np.empty((len(modes), k.size), dtype=np.complex128)
+    poles = np.empty(len(modes), dtype=np.complex128)
+    gains = np.empty(len(modes))
+    for i, mode in enumerate(modes):
         w = 2.0 * math.pi * mode.freq_hz
         p = complex(-mode.damping * w, w * math.sqrt(1.0 - mode.damping**2))
-        kicks = a * np.exp(p * lag)
-        state = np.zeros(1, dtype=np.complex128)
-        for s in range(0, n, _BLOCK):  # in blocks, so memory stays near the output's own
-            e = min(n, s + _BLOCK)
-            u = np.zeros(e - s, dtype=np.complex128)
-            lo, hi = np.searchsorted(k, [s, e])
-            np.add.at(u, k[lo:hi] - s, kicks[lo:hi])
-            z, state = lfilter([1.0], [1.0, -np.exp(p * dt)], u, zi=state)
-            out[s:e] += mode.gain * z.imag
+        kicks[i] = a * np.exp(p * lag)
+        poles[i] = np.exp(p * dt)
+        gains[i] = mode.gain
+    return _ring(k, kicks, poles, gains, n, _BLOCK)
+
+
+@njit(cache=True, nogil=True)
+def _ring(k, kicks, poles, gains, n, block):
+    """``Σ_i g_i Im z_i`` with ``z_{i,s} = e_i z_{i,s−1} + (kicks of sample s)``, over ``n``
+    samples; ``k`` (sorted) is each kick's sample.  Each block's kicks are summed into one
+    work array of ``block`` samples first, so memory stays near the output's own."""
+    out = np.zeros(n)
+    u = np.empty(min(n, block), dtype=np.complex128)
+    for i in range(poles.size):
+        e = poles[i]
+        g = gains[i]
+        z = 0j
+        j = 0
+        for s0 in range(0, n, block):
+            s1 = min(n, s0 + block)
+            u[:s1 - s0] = 0j
+            while j < k.size and k[j] < s1:
+                u[k[j] - s0] += kicks[i, j]
+                j += 1
+            for s in range(s0, s1):
+                y = z + u[s - s0]
+                z = e * y
+                out[s] += g * y.imag
     return out
 
 

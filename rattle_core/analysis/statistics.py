@@ -16,6 +16,8 @@ into honest numbers:
   within the classification's own tolerance.
 * :func:`sensitivity_verdict`: whether the statistics differ between noise levels by more than
   their intervals allow (Cochran's homogeneity test, see its docstring).
+* :func:`attractor_verdicts`: the same verdict for each coexisting attractor on its own, with
+  its runs and estimates at every level, as plain data.
 
 The runs themselves are made by :mod:`rattle_core.batch.ensemble`.
 """
@@ -185,7 +187,10 @@ def sensitivity_verdict(rows: list[dict]) -> tuple[bool, list[str]]:
       exceeds the χ² quantile with ``levels − 1`` degrees of freedom at
       ``SENSITIVITY_ALPHA / 4``: a Bonferroni split of a 1 % family-wise false alarm over the
       four statistics.  An exact (periodic) value at noise ε is known to ``1e-9 + 100 ε``
-      relative, the orbit's own shift under that noise, which stands in for its standard error.
+      relative, the orbit's own shift under that noise, which stands in for its standard error
+      (even from one run).  A noisy value from one run has no interval: it weighs nothing and
+      its level is not counted, and a statistic with fewer than two weighed levels is not
+      tested.
 
     Returns ``(sensitive, reasons)``, each reason a sentence naming the statistic.
     """
@@ -202,16 +207,70 @@ def sensitivity_verdict(rows: list[dict]) -> tuple[bool, list[str]]:
                 continue
             noise = np.array([r["noise"] for r in rows if math.isfinite(r[key].value)])
             v = np.array([e.value for e in est])
-            se = np.array([e.ci95 / t_quantile(e.n) if e.n >= 2 else math.inf for e in est])
+            # an exact value (one run or many) is known to the floor below; one noisy run alone
+            # has no interval, so it weighs nothing
+            se = np.array([0.0 if e.ci95 == 0.0 else e.ci95 / t_quantile(e.n) if e.n >= 2
+                           else math.inf for e in est])
             se = np.maximum(se, (1e-9 + 100.0 * noise) * np.maximum(1.0, np.abs(v)))
             w = 1.0 / se ** 2
+            if np.count_nonzero(w) < 2:
+                continue
             mean = float(np.sum(w * v) / np.sum(w))
             q = float(np.sum(w * (v - mean) ** 2))
-            differ = q > chdtri(len(est) - 1, level)
+            differ = q > chdtri(np.count_nonzero(w) - 1, level)
             if differ:
                 reasons.append(f"{words} {np.min(v):.3g}–{np.max(v):.3g} over noise "
                                f"{rows[0]['noise']:g}…{rows[-1]['noise']:g}")
     return bool(reasons), reasons
+
+
+def attractor_verdicts(levels, per_level) -> list[dict]:
+    """Each attractor of a noise-sensitivity check, followed across the levels, with its verdict.
+
+    ``levels``: the noise levels; ``per_level``: for each level, the :class:`Attractor` s its
+    runs reached (largest first, as :func:`group_runs` returns them).  An attractor is the same
+    at two levels when its label is (the ``k``-th group of one label at a level is matched with
+    the ``k``-th at another, their order being by runs).  Each attractor's statistics are
+    compared across the levels that reach it by :func:`sensitivity_verdict`; one that some
+    levels do not reach is noise-sensitive too, since whether a run ends on it then depends on
+    the noise.
+
+    Returns one dict per attractor, in order of first appearance (the first level's largest
+    first): ``label``, ``regime``, ``period``, ``runs`` (runs on it at each level, 0 where not
+    reached), ``estimates`` (per statistic, ``[value, ci95]`` at each level, NaN where not
+    reached), ``sensitive`` and ``reasons``.  Plain data, so it crosses process boundaries.
+    """
+    levels = [float(v) for v in levels]
+    if len(per_level) != len(levels):
+        raise ValueError(f"per_level has {len(per_level)} entries; levels has {len(levels)}")
+    found: dict[tuple[str, int], dict] = {}
+    for li, groups in enumerate(per_level):
+        seen: dict[str, int] = {}
+        for a in groups:
+            k = seen.get(a.label, 0)
+            seen[a.label] = k + 1
+            entry = found.setdefault((a.label, k), {
+                "label": a.label, "regime": a.regime, "period": a.period,
+                "runs": [0] * len(levels), "found": [None] * len(levels)})
+            entry["runs"][li] = len(a.runs)
+            entry["found"][li] = a
+    out = []
+    for entry in found.values():
+        present = [(lv, a) for lv, a in zip(levels, entry.pop("found")) if a is not None]
+        rows = [{"noise": lv, "attractor": a.label, **a.estimates} for lv, a in present]
+        sensitive, reasons = sensitivity_verdict(rows)
+        missing = [lv for lv, n in zip(levels, entry["runs"]) if n == 0]
+        if missing:
+            sensitive = True
+            reasons.insert(0, "reached at noise " + ", ".join(f"{lv:g}" for lv, _ in present)
+                           + " but not at " + ", ".join(f"{lv:g}" for lv in missing))
+        nan = [math.nan, math.nan]
+        entry["estimates"] = {
+            k: [[a.estimates[k].value, a.estimates[k].ci95] if a is not None else nan
+                for a in (dict(present).get(lv) for lv in levels)] for k in STATISTICS}
+        entry.update(sensitive=bool(sensitive), reasons=list(reasons))
+        out.append(entry)
+    return out
 
 
 def batch_means(tr, classification=None, blocks: int = 10) -> dict[str, Estimate]:

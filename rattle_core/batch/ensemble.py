@@ -16,7 +16,7 @@ import numpy as np
 from ..analysis.statistics import (STATISTICS, Attractor, Estimate, group_runs,
                                    period_tolerance, sensitivity_verdict)
 from ..model.excitation import excitation
-from ..model.params import NOISE_RANGE, RattleParams, check_range
+from ..model.params import NOISE_RANGE, RattleParams, check_cancel, check_progress, check_range
 from ..solver import kernel as solver
 from ..solver.noise import MAX_SEED
 from ..solver.trajectory import SOLVER_VERSION, _check_int
@@ -229,6 +229,7 @@ def statistics(params: RattleParams, *, runs: int = 8, periods: int = 4000,
     """
     runs, periods, transient = _check_runs(runs, periods, transient)
     seed = _check_int("seed", seed, 0, MAX_SEED - 100_000)
+    progress, cancel = check_progress(progress), check_cancel(cancel)
     return _ensemble(params, [params.noise], runs, periods, transient, seed, executor,
                      progress, cancel)[0]
 
@@ -246,6 +247,7 @@ def noise_sensitivity(params: RattleParams, levels: Sequence[float] = DEFAULT_LE
     1 % family-wise false-alarm rate).  Cost: ``len(levels)`` times that of
     :func:`statistics`.
     """
+    progress, cancel = check_progress(progress), check_cancel(cancel)
     if isinstance(levels, (str, bytes)) or np.isscalar(levels):
         raise ValueError(f"levels must be a sequence of noise levels in [0, 0.5], got {levels!r}")
     levels = [check_range(f"levels[{i}]", v, *NOISE_RANGE) for i, v in enumerate(levels)]

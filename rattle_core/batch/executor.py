@@ -18,6 +18,8 @@ import re
 import threading
 from typing import Any, Callable, Iterator, Sequence
 
+from ..model.params import check_cancel, check_progress
+
 _SCHEDULER_RE = re.compile(r"^(tcp|tls|ws|wss|inproc)://[^\s/]+$")
 #: Workers of a ``"local"`` cluster unless told otherwise.
 LOCAL_WORKERS = 2
@@ -42,6 +44,7 @@ def run_chunks(fn: Callable[..., dict], tasks: Sequence[tuple], sizes: Sequence[
         Polled before each local chunk and after each finished Dask task; once it returns
         True, the chunks done so far are returned (on Dask the others are cancelled).
     """
+    progress, cancel = check_progress(progress), check_cancel(cancel)
     total = int(sum(sizes))
     done = 0
     if executor is None:

@@ -6,7 +6,11 @@ each chunk (all gears at a few speeds) is one task of :func:`~rattle_core.batch.
 the chunk runner (:func:`~rattle_core.batch.chunks.run_chunk`, one parallel kernel), classifies
 them, renders each gear's rattle and the whole gearbox's (the gears' sound pressures added) and
 measures their loudness (:mod:`rattle_core.analysis.loudness`); it sends back one row per gear
-and speed.
+and speed.  Within a chunk the speeds' sounds run on threads (``threads``, every core by
+default): rendering and loudness are compiled kernels that release the GIL, so the threads run
+at once, while the chunk's own thread finds the intervals of the points that do not repeat.
+Each speed's numbers come from its own sounds alone, so the verdict is the same, row for row,
+on any number of threads.
 
 Columns of :attr:`Verdict.table` (one row per gear and speed, then one per speed with ``gear``
 = :data:`GEARBOX`, the gears together):
@@ -43,6 +47,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any, Callable
 
 import numpy as np
@@ -52,11 +57,11 @@ from ..analysis.sound import render
 from ..analysis.statistics import estimate
 from ..analysis.vocabulary import regime_letters
 from ..model.gearbox import Gearbox
-from ..model.params import RattleParams
+from ..model.params import RattleParams, check_cancel, check_progress
 from ..solver.trajectory import SOLVER_VERSION, _check_int
 from .chunks import run_chunk, summary_arrays
 from .ensemble import statistics
-from .executor import run_chunks
+from .executor import default_threads, run_chunks
 from .sweep import check_budget
 
 #: The ``gear`` of the rows that describe all gears together.
@@ -163,9 +168,16 @@ def _blocks(t: np.ndarray, values: np.ndarray, transient: int, record: int) -> n
 
 
 def _verdict_chunk(gearbox: Gearbox, rpm: np.ndarray, transient: int, record: int,
-                   runs: int = ENSEMBLE_RUNS) -> dict:
-    """All gears at the speeds ``rpm``: one row per point, plus the gearbox's per speed."""
-    phys, cols = _point_rows(gearbox, rpm)
+                   runs: int = ENSEMBLE_RUNS, threads: int | None = None,
+                   points: tuple | None = None) -> dict:
+    """All gears at the speeds ``rpm``: one row per point, plus the gearbox's per speed.
+
+    The motion of all points is one parallel kernel; then the speeds' sounds (each gear's
+    rattle, the gearbox's, their loudness) run on ``threads`` threads (compiled, ``nogil``
+    kernels) while this thread finds the intervals of the points that do not repeat
+    (``statistics`` runs its own parallel kernel).  ``points`` is :func:`_point_rows` of these
+    speeds when the caller has it already."""
+    phys, cols = _point_rows(gearbox, rpm) if points is None else points
     K = gearbox.excitation.harmonics
     base = RattleParams(lam=1.0, amplitudes=(1.0,) + (0.0,) * (K - 1), phases_deg=(0.0,) * K)
     n = len(phys)
@@ -178,51 +190,71 @@ def _verdict_chunk(gearbox: Gearbox, rpm: np.ndarray, transient: int, record: in
     ng = len(gearbox.gears)
     out = {k: np.zeros(n) for k in ("impacts_per_s", "intensity", "loudness_sone",
                                      "sharpness_acum", "impacts_per_s_ci95", "intensity_ci95")}
-    interval = np.full(n, "exact", dtype=object)
-    samples = int(round(gearbox.duration_s * SAMPLE_RATE))
-    pressures = np.zeros((n, samples))
-    for i, ph in enumerate(phys):
-        f = ph.frequency_hz
-        scale = ph.impulse_scale
-        sl = slice(starts[i], ends[i])
-        t, imp = chunk["time"][sl], chunk["impulse"][sl]
-        per_period = np.ones(t.size)
-        out["impacts_per_s"][i] = (cl["active_per_period"][i] + cl["reverse_per_period"][i]) * f
-        out["intensity"][i] = cl["intensity"][i] * scale**2 * f
-        if cl["period"][i] == 0 and t.size:
-            if runs >= 2:
-                st = statistics(ph.to_dimensionless(), runs=runs, periods=record,
-                                transient=transient)
-                rate, energy, interval[i] = st.impacts_per_period, st.intensity, f"{runs} runs"
-            else:
-                rate = estimate(_blocks(t, per_period, transient, record))
-                energy = estimate(_blocks(t, imp**2, transient, record))
-                interval[i] = "blocks"
-            out["impacts_per_s"][i], out["impacts_per_s_ci95"][i] = rate.value * f, rate.ci95 * f
-            out["intensity"][i] = energy.value * scale**2 * f
-            out["intensity_ci95"][i] = energy.ci95 * scale**2 * f
-        if letters[i] == "A" or t.size == 0:
-            continue  # permanent contact is silent
-        t_s = (t - 2 * math.pi * transient) / ph.omega
-        pressures[i] = gearbox.transfer_pa_per_ns * render(t_s, imp * scale, gearbox.duration_s,
-                                                           SAMPLE_RATE)
-        if np.any(pressures[i]):
-            heard = loudness(pressures[i])
-            out["loudness_sone"][i] = heard.loudness_sone
-            out["sharpness_acum"][i] = heard.sharpness_acum
     box = {k: np.zeros(len(rpm)) for k in out}
-    for s in range(len(rpm)):
-        rows = slice(s * ng, (s + 1) * ng)
-        box["impacts_per_s"][s] = out["impacts_per_s"][rows].sum()
-        box["intensity"][s] = out["intensity"][rows].sum()
-        loud = [i for i in range(s * ng, (s + 1) * ng) if np.any(pressures[i])]
-        if len(loud) == 1:
-            box["loudness_sone"][s] = out["loudness_sone"][loud[0]]
-            box["sharpness_acum"][s] = out["sharpness_acum"][loud[0]]
-        elif loud:
-            heard = loudness(pressures[rows].sum(axis=0))
-            box["loudness_sone"][s] = heard.loudness_sone
-            box["sharpness_acum"][s] = heard.sharpness_acum
+
+    def sounds(s: int) -> list[tuple[float, float]]:
+        """Speed ``s``: each gear's (loudness, sharpness), then the gearbox's."""
+        heard, total, loud = [], None, []
+        for i in range(s * ng, (s + 1) * ng):
+            if letters[i] == "A" or ends[i] == starts[i]:
+                heard.append((0.0, 0.0))  # permanent contact is silent
+                continue
+            ph = phys[i]
+            sl = slice(starts[i], ends[i])
+            t_s = (chunk["time"][sl] - 2 * math.pi * transient) / ph.omega
+            p = gearbox.transfer_pa_per_ns * render(t_s, chunk["impulse"][sl] * ph.impulse_scale,
+                                                    gearbox.duration_s, SAMPLE_RATE)
+            if not np.any(p):
+                heard.append((0.0, 0.0))
+                continue
+            h = loudness(p)
+            heard.append((h.loudness_sone, h.sharpness_acum))
+            total = p if total is None else total + p
+            loud.append(heard[-1])
+        if len(loud) > 1:
+            h = loudness(total)
+            loud = [(h.loudness_sone, h.sharpness_acum)]
+        heard.append(loud[0] if loud else (0.0, 0.0))
+        return heard
+
+    threads = default_threads() if threads is None else threads
+    pool = ThreadPoolExecutor(threads) if threads > 1 else None
+    try:
+        pending = ([pool.submit(sounds, s) for s in range(len(rpm))] if pool is not None
+                   else None)
+        interval = np.full(n, "exact", dtype=object)
+        for i, ph in enumerate(phys):
+            f = ph.frequency_hz
+            scale = ph.impulse_scale
+            sl = slice(starts[i], ends[i])
+            t, imp = chunk["time"][sl], chunk["impulse"][sl]
+            out["impacts_per_s"][i] = (cl["active_per_period"][i]
+                                       + cl["reverse_per_period"][i]) * f
+            out["intensity"][i] = cl["intensity"][i] * scale**2 * f
+            if cl["period"][i] == 0 and t.size:
+                if runs >= 2:
+                    st = statistics(ph.to_dimensionless(), runs=runs, periods=record,
+                                    transient=transient)
+                    rate, energy, interval[i] = st.impacts_per_period, st.intensity, f"{runs} runs"
+                else:
+                    rate = estimate(_blocks(t, np.ones(t.size), transient, record))
+                    energy = estimate(_blocks(t, imp**2, transient, record))
+                    interval[i] = "blocks"
+                out["impacts_per_s"][i] = rate.value * f
+                out["impacts_per_s_ci95"][i] = rate.ci95 * f
+                out["intensity"][i] = energy.value * scale**2 * f
+                out["intensity_ci95"][i] = energy.ci95 * scale**2 * f
+        heard = ([fut.result() for fut in pending] if pool is not None
+                 else [sounds(s) for s in range(len(rpm))])
+    finally:
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
+    for s, rows in enumerate(heard):
+        for g in range(ng):
+            out["loudness_sone"][s * ng + g], out["sharpness_acum"][s * ng + g] = rows[g]
+        box["impacts_per_s"][s] = out["impacts_per_s"][s * ng:(s + 1) * ng].sum()
+        box["intensity"][s] = out["intensity"][s * ng:(s + 1) * ng].sum()
+        box["loudness_sone"][s], box["sharpness_acum"][s] = rows[ng]
     ratio = np.empty(n)
     for g in range(ng):
         ratio[g::ng] = gearbox.contact_ratio(g, rpm)
@@ -235,7 +267,8 @@ def _verdict_chunk(gearbox: Gearbox, rpm: np.ndarray, transient: int, record: in
 def verdict(gearbox: Gearbox, rpm: Any, *, transient: int = 200, record: int = 100,
             progress: Callable[[int, int], Any] | None = None,
             cancel: Callable[[], bool] | None = None, executor: Any = None,
-            chunk_speeds: int | None = None, ensemble_runs: int = ENSEMBLE_RUNS) -> Verdict:
+            chunk_speeds: int | None = None, ensemble_runs: int = ENSEMBLE_RUNS,
+            threads: int | None = None) -> Verdict:
     """Which gears rattle, from which speed, and how loud: every gear at every speed, one batch.
 
     Parameters
@@ -257,25 +290,34 @@ def verdict(gearbox: Gearbox, rpm: Any, *, transient: int = 200, record: int = 1
     ensemble_runs : int
         Independent runs behind the rates and intervals of a point whose motion does not
         repeat (0: one run, intervals from blocks of its window; module docstring).
+    threads : int, optional
+        Threads that render and measure a chunk's sounds, speed by speed (default
+        ``NUMBA_NUM_THREADS`` or the number of cores; 1: one after the other).  The verdict is
+        the same, row for row, for any number.
     """
     import pandas as pd
     if not isinstance(gearbox, Gearbox):
         raise ValueError(f"gearbox must be a Gearbox, got {type(gearbox).__name__}")
+    progress, cancel = check_progress(progress), check_cancel(cancel)
     r = check_rpm(rpm, gearbox)
     transient = _check_int("transient", transient, 0, 100_000)
     record = _check_int("record", record, BLOCKS, 100_000)
     record = record_periods(gearbox, r, record)
     runs = _check_int("ensemble_runs", ensemble_runs, 0, 64)
+    if threads is not None:
+        threads = _check_int("threads", threads, 1, 1024)
     ng = len(gearbox.gears)
     # the worst case: every point non-periodic, each run again ``runs`` times
     check_budget(r.size * ng * (transient + record) * (1 + runs),
                  "gears × speeds × (transient + record) × (1 + ensemble_runs)")
     # every point is checked before anything runs
-    _point_rows(gearbox, r)
+    phys, cols = _point_rows(gearbox, r)
     if chunk_speeds is None:
         chunk_speeds = max(2, math.ceil(r.size / 10))
     chunk_speeds = _check_int("chunk_speeds", chunk_speeds, 1, MAX_SPEEDS)
-    tasks = [(gearbox, r[s:s + chunk_speeds], transient, record, runs)
+    tasks = [(gearbox, r[s:s + chunk_speeds], transient, record, runs, threads,
+              (phys[s * ng:(s + chunk_speeds) * ng],
+               {k: v[s * ng:(s + chunk_speeds) * ng] for k, v in cols.items()}))
              for s in range(0, r.size, chunk_speeds)]
     parts, cancelled = run_chunks(_verdict_chunk, tasks, [len(t[1]) * ng for t in tasks],
                                   executor=executor, progress=progress, cancel=cancel)

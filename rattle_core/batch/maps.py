@@ -30,7 +30,8 @@ import numpy as np
 from ..analysis.classify import MAX_PERIOD, detect_period
 from ..analysis.vocabulary import LETTERS, regime_letters
 from ..model.excitation import excitation
-from ..model.params import RattleParams, check_int, check_range, check_reals, parse_name
+from ..model.params import (RattleParams, check_cancel, check_int, check_progress, check_range,
+                            check_reals, parse_name)
 from ..solver.trajectory import MAX_PERIODS, SOLVER_VERSION, _check_int
 from .chunks import check_start, run_chunk, summary_arrays
 from .executor import run_chunks
@@ -78,6 +79,25 @@ def _grid_args(name: str, values, label: str) -> np.ndarray:
     if vals.size == 0:
         raise ValueError(f"{label} is empty; give at least one value")
     return vals
+
+
+def check_basin_axes(params: RattleParams, x0_values, v0_values,
+                     labels: tuple[str, str] = ("x0_values", "v0_values")) -> tuple:
+    """The start states of a basin map, checked: ``(x0 values, v0 values, y(0), y(0) + j)``.
+
+    Every ``x0`` must lie in the backlash at t = 0, ``[y(0), y(0) + j]``, and every ``v0`` in
+    ``[-1e6, 1e6]``; ``labels`` say how messages name the two axes.
+    """
+    xv = _grid_args("x0", x0_values, labels[0])
+    vv = _grid_args("v0", v0_values, labels[1])
+    y0 = float(excitation(0.0, params.h, params.phi))
+    lo, hi = y0, y0 + params.j
+    if xv.min() < lo - 1e-12 or xv.max() > hi + 1e-12:
+        raise ValueError(f"{labels[0]} must lie in the backlash at t = 0, [{lo:g}, {hi:g}]; got "
+                         f"[{xv.min():g}, {xv.max():g}]")
+    if np.max(np.abs(vv)) > 1e6:
+        raise ValueError(f"{labels[1]} must lie in [-1e6, 1e6]; got [{vv.min():g}, {vv.max():g}]")
+    return xv, vv, lo, hi
 
 
 def _check_size(nx: int, ny: int, transient: int, record: int) -> tuple[int, int]:
@@ -174,6 +194,8 @@ def regime_map(base: RattleParams, x_name: str, x_values, y_name: str, y_values,
     """
     if not isinstance(base, RattleParams):
         raise ValueError(f"base must be a RattleParams, got {type(base).__name__}")
+    progress = check_progress(progress)
+    cancel = check_cancel(cancel)
     parse_name(x_name)
     parse_name(y_name)
     if x_name == y_name:
@@ -216,16 +238,10 @@ def basin_map(params: RattleParams, x0_values, v0_values, transient: int = 300,
     """
     if not isinstance(params, RattleParams):
         raise ValueError(f"params must be a RattleParams, got {type(params).__name__}")
+    progress = check_progress(progress)
+    cancel = check_cancel(cancel)
     decimals = check_int("decimals", decimals, 0, 15)
-    xv = _grid_args("x0", x0_values, "x0_values")
-    vv = _grid_args("v0", v0_values, "v0_values")
-    y0 = float(excitation(0.0, params.h, params.phi))
-    lo, hi = y0, y0 + params.j
-    if xv.min() < lo - 1e-12 or xv.max() > hi + 1e-12:
-        raise ValueError(f"x0_values must lie in the backlash at t = 0, [{lo:g}, {hi:g}]; got "
-                         f"[{xv.min():g}, {xv.max():g}]")
-    if np.max(np.abs(vv)) > 1e6:
-        raise ValueError("v0_values must lie in [-1e6, 1e6]")
+    xv, vv, lo, hi = check_basin_axes(params, x0_values, v0_values)
     transient, record = _check_size(len(xv), len(vv), transient, record)
     record = max(record, 2 * MAX_PERIOD + 2)
     gx, gv = np.meshgrid(xv, vv)

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..model.params import RattleParams, iter_names, parse_name
-from .maps import _grid_args
+from .maps import _grid_args, check_basin_axes
 
 #: Physical map axes: axis name → (PhysicalParams field, factor from the axis unit to SI).
 PHYSICAL_AXES = {"rpm": ("rpm", 1.0), "drag_torque": ("drag_torque", 1.0),
@@ -77,6 +77,11 @@ def plan_map(params: RattleParams, phys: Any, x_name: str, x_values, y_name: str
         if set(names) != set(BASIN_AXES):
             raise ValueError(f"basins of attraction need {labels[0]} x0 {labels[1]} v0 together; "
                              f"got {x_name!r} and {y_name!r}")
+        # the start states are checked here too, so a bad one stops the request before any
+        # worker or progress bar starts
+        x_axis = 0 if x_name == "x0" else 1
+        check_basin_axes(params, (xv, yv)[x_axis], (yv, xv)[x_axis],
+                         (f"{labels[x_axis]} x0 values", f"{labels[1 - x_axis]} v0 values"))
         return ("basin",)
     for axis, (n, vals) in enumerate(zip(names, (xv, yv))):
         if n in PHYSICAL_AXES:

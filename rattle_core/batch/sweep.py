@@ -22,7 +22,8 @@ from typing import TYPE_CHECKING, Any, Callable, Sequence
 import numpy as np
 
 from ..analysis.vocabulary import STICKING_KINDS, regime_letters
-from ..model.params import RattleParams, check_range, check_reals, parse_name
+from ..model.params import (RattleParams, check_cancel, check_progress, check_range, check_reals,
+                            parse_name)
 from ..solver import kernel as solver
 from ..solver.trajectory import MAX_PERIODS, SOLVER_VERSION, _check_int
 from .chunks import check_start, param_arrays, run_chunk, summary_arrays
@@ -188,6 +189,8 @@ def sweep(base: RattleParams, name: str, values: Sequence[float], transient: int
     """
     if not isinstance(base, RattleParams):
         raise ValueError(f"base must be a RattleParams, got {type(base).__name__}")
+    progress = check_progress(progress)
+    cancel = check_cancel(cancel)
     vals, transient, record = validate_sweep_args(name, values, transient, record, mode, columns)
     cols = {name: vals} if columns is None else {k: np.asarray(v, dtype=np.float64)
                                                  for k, v in columns.items()}

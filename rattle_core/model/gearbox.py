@@ -33,12 +33,22 @@ the speed range: ``θ_k = α_k / (k Ω)²``) or ``amplitude_rad``, and ``phase_d
 
 Every value is checked; a bad one raises ``ValueError`` naming the gear, the key, the value and
 the allowed range.  Unknown keys are refused (a misspelt key would otherwise be ignored).
+
+A file is untrusted input.  Before it is parsed its brackets and braces may nest at most
+:data:`MAX_TOML_DEPTH` deep (the parser recurses once per level); once parsed, tables nest at
+most that deep, an array holds at most :data:`MAX_TOML_ARRAY` items and a string or key at
+most :data:`MAX_TOML_STRING` characters.  A name (a gear's, a measurement file's) may not
+hold control characters, line breaks or bidirectional formatting characters, which would let
+it break a one-line message or display as another text.  Every error is one line naming the
+file and the place in it: the line, the key path, or the gear's number and name.
 """
 from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import tomllib
+import unicodedata
 from pathlib import Path
 from typing import Any
 
@@ -52,6 +62,15 @@ from .units import (ALPHA_RANGE, DRAG_TORQUE_RANGE, INERTIA_RANGE, RADIUS_RANGE,
 
 MAX_GEARS = 32
 MAX_TOML_BYTES = 1_000_000
+#: Deepest nesting of brackets and braces, and of tables, in a gearbox file (the format needs 2).
+MAX_TOML_DEPTH = 8
+#: Most items of one array in a gearbox file.
+MAX_TOML_ARRAY = 256
+#: Longest string or key in a gearbox file [characters].
+MAX_TOML_STRING = 1024
+#: Bidirectional formatting characters: embeddings, overrides, isolates and marks.
+BIDI_CHARACTERS = frozenset("\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069"
+                            "\u200e\u200f\u061c")
 RATIO_RANGE = (0.0, 100.0)            # open at 0
 BACKLASH_UM_RANGE = (0.0, 1.0e5)      # open at 0
 DURATION_RANGE = (0.2, 10.0)          # s
@@ -80,7 +99,8 @@ class Gear:
     def __post_init__(self) -> None:
         set_ = object.__setattr__
         if not isinstance(self.name, str) or not self.name.strip() or len(self.name) > 80:
-            raise ValueError(f"gear name = {self.name!r} must be text of 1 to 80 characters")
+            raise ValueError(f"gear name = {self.name!r:.100} must be text of 1 to 80 characters")
+        check_name("gear name", self.name)
         set_(self, "name", self.name.strip())
         where = f"gear {self.name!r}: "
         for key, rng, open_lo in (("inertia_kgm2", INERTIA_RANGE, True),
@@ -256,59 +276,96 @@ class Gearbox:
     def from_toml(cls, path: str | Path) -> "Gearbox":
         """Read a ``GEARBOX.toml``; a measurement path is relative to the file's folder."""
         p = Path(path)
+        label = f"gearbox file {p.name!r}"
         if not p.is_file():
             raise ValueError(f"gearbox file {str(p)!r} does not exist or is not a file")
         if p.stat().st_size > MAX_TOML_BYTES:
-            raise ValueError(f"gearbox file {p.name!r} has {p.stat().st_size} bytes; the allowed "
-                             f"size is up to {MAX_TOML_BYTES}")
+            raise ValueError(f"{label} has {p.stat().st_size} bytes; the allowed size is up to "
+                             f"{MAX_TOML_BYTES}")
         try:
             text = p.read_text(encoding="utf-8")
-        except UnicodeDecodeError:
-            raise ValueError(f"gearbox file {p.name!r} is not UTF-8 text") from None
-        return cls.from_text(text, base_dir=p.parent)
+        except UnicodeDecodeError as exc:
+            raise ValueError(f"{label}, byte {exc.start}: the file is not UTF-8 text") from None
+        return cls.from_text(text, base_dir=p.parent, source=label)
 
     @classmethod
     def from_text(cls, text: str, base_dir: str | Path | None = None,
-                  measurement: OrderMap | None = None) -> "Gearbox":
+                  measurement: OrderMap | None = None, source: str = "gearbox text") -> "Gearbox":
         """A gearbox from TOML text.
 
         ``base_dir`` is where a ``measurement`` file is looked for; with ``base_dir=None``
         (text from an upload) no file is opened: ``measurement`` must be ``"sample"`` or the
         map passed as ``measurement``, which then replaces whatever file the text names.
+        ``source`` names the text in error messages (``"gearbox file 'box.toml'"``): every
+        error is a one-line ``ValueError``, ``SOURCE, PLACE: what is wrong``.
         """
+        try:
+            return cls._from_text(text, base_dir, measurement)
+        except _FileError as exc:
+            raise ValueError(_one_line(f"{source}, {exc.place}: {exc.message}")) from None
+        except ValueError as exc:
+            raise ValueError(_one_line(f"{source}: {exc}")) from None
+
+    @classmethod
+    def _from_text(cls, text: str, base_dir: str | Path | None,
+                   measurement: OrderMap | None) -> "Gearbox":
+        if not isinstance(text, str):
+            raise ValueError(f"the gearbox text must be a str, got {type(text).__name__}")
         if len(text.encode("utf-8", "replace")) > MAX_TOML_BYTES:
-            raise ValueError(f"gearbox text is over the allowed size of {MAX_TOML_BYTES} bytes")
+            raise ValueError(f"the text is over the allowed size of {MAX_TOML_BYTES} bytes")
+        check_nesting(text)
         try:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
-            raise ValueError(f"gearbox TOML: {exc}") from None
+            raise ValueError(f"TOML syntax: {exc}") from None
+        except RecursionError:  # check_nesting stops this first; a second guard
+            raise ValueError(f"the TOML nests deeper than the parser can follow; the allowed "
+                             f"depth is {MAX_TOML_DEPTH}") from None
+        check_sizes(data)
         unknown = set(data) - {"excitation", "gear", "sound"}
         if unknown:
-            raise ValueError(f"gearbox TOML: unknown table {sorted(unknown)[0]!r}; allowed: "
-                             "excitation, sound, gear")
+            raise _FileError(f"[{sorted(unknown)[0]}]", "unknown table; allowed: excitation, "
+                             "sound, gear")
         exc_t = _table(data, "excitation", _EXC_KEYS)
         sound_t = _table(data, "sound", _SOUND_KEYS)
         gear_list = data.get("gear", [])
         if not isinstance(gear_list, list) or not gear_list:
-            raise ValueError("gearbox TOML: give at least one [[gear]] table")
+            raise _FileError("[[gear]]", "give at least one [[gear]] table")
         if len(gear_list) > MAX_GEARS:
-            raise ValueError(f"gearbox TOML has {len(gear_list)} gears; the allowed range is 1 "
-                             f"to {MAX_GEARS}")
+            raise _FileError("[[gear]]", f"{len(gear_list)} gears; the allowed range is 1 to "
+                             f"{MAX_GEARS}")
         gears = []
         for i, g in enumerate(gear_list):
+            place = f"[[gear]] number {i + 1}"
             if not isinstance(g, dict):
-                raise ValueError(f"gearbox TOML: [[gear]] number {i + 1} is not a table")
-            _check_keys(g, _GEAR_KEYS, f"gear {g.get('name', i + 1)!r}")
-            missing = {"name", "inertia_kgm2", "base_radius_m", "drag_torque_Nm",
-                       "backlash_um"} - set(g)
-            if missing:
-                raise ValueError(f"gear {g.get('name', i + 1)!r}: missing key "
-                                 f"{sorted(missing)[0]!r}")
-            gears.append(Gear(**g))
-        excitation = excitation_from_table(exc_t, base_dir, measurement)
-        return cls(excitation=excitation, gears=tuple(gears),
-                   transfer_pa_per_ns=sound_t.get("transfer_pa_per_ns", DEFAULT_TRANSFER_PA_PER_NS),
-                   duration_s=sound_t.get("duration_s", DEFAULT_DURATION_S))
+                raise _FileError(place, "is not a table")
+            name = g.get("name")
+            if isinstance(name, str):
+                with _at(place):
+                    check_name("name", name)
+                place += f" ({name.strip()!r:.100})"
+            with _at(place):
+                _check_keys(g, _GEAR_KEYS, "")
+                missing = {"name", "inertia_kgm2", "base_radius_m", "drag_torque_Nm",
+                           "backlash_um"} - set(g)
+                if missing:
+                    raise ValueError(f"missing key {sorted(missing)[0]!r}")
+            try:
+                gears.append(Gear(**g))
+            except ValueError as exc:
+                # the place already names the gear
+                text = str(exc)
+                own = f"gear {name.strip()!r}: " if isinstance(name, str) else ""
+                raise _FileError(place, text[len(own):] if own and text.startswith(own)
+                                 else text) from None
+        with _at("[excitation]"):
+            excitation = excitation_from_table(exc_t, base_dir, measurement)
+        with _at("[[gear]]"):
+            box = cls(excitation=excitation, gears=tuple(gears))
+        with _at("[sound]"):
+            return box.replace(
+                transfer_pa_per_ns=sound_t.get("transfer_pa_per_ns", DEFAULT_TRANSFER_PA_PER_NS),
+                duration_s=sound_t.get("duration_s", DEFAULT_DURATION_S))
 
 
 def model_columns(points: list) -> dict:
@@ -324,65 +381,195 @@ def model_columns(points: list) -> dict:
     return out
 
 
+def check_name(what: str, name: str) -> str:
+    """``name`` if it holds no control character (NUL included), line or paragraph separator,
+    or bidirectional formatting character; else ``ValueError`` naming ``what`` and the
+    character (the name is shown escaped, so the message stays one readable line)."""
+    for i, ch in enumerate(name):
+        if ch in BIDI_CHARACTERS or unicodedata.category(ch) in ("Cc", "Zl", "Zp"):
+            kind = ("a bidirectional formatting character" if ch in BIDI_CHARACTERS
+                    else "a control character")
+            raise ValueError(f"{what} {name!r:.100} holds {kind}, U+{ord(ch):04X}, at position "
+                             f"{i + 1}; names may hold only printable text")
+    return name
+
+
+class _FileError(ValueError):
+    """An error at a place in a gearbox file: ``place`` (a key path, a gear) and ``message``."""
+
+    def __init__(self, place: str, message: str) -> None:
+        super().__init__(f"{place}: {message}")
+        self.place = place
+        self.message = message
+
+
+class _at:
+    """A context that turns a ``ValueError`` raised in it into a :class:`_FileError` at ``place``."""
+
+    def __init__(self, place: str) -> None:
+        self.place = place
+
+    def __enter__(self) -> None:
+        return None
+
+    def __exit__(self, kind, exc, tb) -> bool:
+        if isinstance(exc, ValueError) and not isinstance(exc, _FileError):
+            raise _FileError(self.place, str(exc)) from None
+        return False
+
+
+def _one_line(text: str) -> str:
+    return " ".join(text.split())
+
+
+# the tokens that matter for nesting: strings and comments are skipped whole, so that
+# brackets inside them do not count
+_TOKEN = re.compile(r'"""|' + r"'''" + r'''|"|'|#|[\[\]{}]|\n''')
+_STRING_END = {'"""': re.compile(r'(?:[^"\\]|\\.|"(?!""))*"""', re.S),
+               "'''": re.compile(r"(?:[^']|'(?!''))*" + r"'''", re.S),
+               '"': re.compile(r'(?:[^"\\\n]|\\.)*(?:"|$)', re.M),
+               "'": re.compile(r"[^'\n]*(?:'|$)", re.M)}
+
+
+def check_nesting(text: str, limit: int = MAX_TOML_DEPTH) -> None:
+    """Refuse TOML text whose arrays and inline tables nest deeper than ``limit``, before it
+    is parsed (the parser recurses once per level): ``ValueError`` naming the line."""
+    depth = 0
+    line = 1
+    pos = 0
+    while True:
+        m = _TOKEN.search(text, pos)
+        if m is None:
+            return
+        tok = m.group()
+        pos = m.end()
+        if tok == "\n":
+            line += 1
+        elif tok == "#":
+            nl = text.find("\n", pos)
+            pos = len(text) if nl < 0 else nl
+        elif tok in _STRING_END:
+            end = _STRING_END[tok].match(text, pos)
+            stop = end.end() if end else len(text)
+            line += text.count("\n", pos, stop)
+            pos = stop
+        elif tok in "[{":
+            depth += 1
+            if depth > limit:
+                raise _FileError(f"line {line}", f"arrays and inline tables nest more than "
+                                 f"{limit} deep; the allowed depth is {limit}")
+        else:
+            depth = max(0, depth - 1)
+
+
+def check_sizes(data: dict) -> None:
+    """Refuse parsed TOML whose tables nest deeper than :data:`MAX_TOML_DEPTH`, whose arrays
+    hold more than :data:`MAX_TOML_ARRAY` items, or whose strings or keys are longer than
+    :data:`MAX_TOML_STRING` characters: ``ValueError`` naming the key path."""
+    todo: list[tuple[str, Any, int]] = [("", data, 0)]
+    while todo:
+        path, value, depth = todo.pop()
+        where = path or "the top level"
+        if depth > MAX_TOML_DEPTH:
+            raise _FileError(where, f"tables and arrays nest more than {MAX_TOML_DEPTH} deep; "
+                             f"the allowed depth is {MAX_TOML_DEPTH}")
+        if isinstance(value, dict):
+            for key, item in value.items():
+                if len(key) > MAX_TOML_STRING:
+                    raise _FileError(where, f"a key has {len(key)} characters; the allowed "
+                                     f"length is up to {MAX_TOML_STRING}")
+                todo.append((f"{path}.{key}" if path else key, item, depth + 1))
+        elif isinstance(value, list):
+            if len(value) > MAX_TOML_ARRAY:
+                raise _FileError(where, f"the array has {len(value)} items; the allowed size is "
+                                 f"up to {MAX_TOML_ARRAY}")
+            todo.extend((f"{path}[{i}]", item, depth + 1) for i, item in enumerate(value))
+        elif isinstance(value, str) and len(value) > MAX_TOML_STRING:
+            raise _FileError(where, f"the string has {len(value)} characters; the allowed "
+                             f"length is up to {MAX_TOML_STRING}")
+
+
 def _check_keys(t: dict, allowed: set[str], where: str) -> None:
     extra = set(t) - allowed
     if extra:
-        raise ValueError(f"{where}: unknown key {sorted(extra)[0]!r}; allowed: "
-                         f"{', '.join(sorted(allowed))}")
+        raise ValueError(f"{where + ': ' if where else ''}unknown key {sorted(extra)[0]!r}; "
+                         f"allowed: {', '.join(sorted(allowed))}")
 
 
 def _table(data: dict, name: str, allowed: set[str]) -> dict:
     t = data.get(name, {})
     if not isinstance(t, dict):
-        raise ValueError(f"gearbox TOML: [{name}] must be a table")
-    _check_keys(t, allowed, f"gearbox TOML [{name}]")
+        raise _FileError(f"[{name}]", "must be a table")
+    with _at(f"[{name}]"):
+        _check_keys(t, allowed, "")
     return t
 
 
 def excitation_from_table(t: dict, base_dir: str | Path | None,
                           measurement: OrderMap | None = None) -> Excitation:
-    """The ``[excitation]`` table of a gearbox file, checked (module docstring)."""
+    """The ``[excitation]`` table of a gearbox file, checked (module docstring); an error names
+    its key (``ValueError``, ``[excitation] KEY: ...``)."""
     engine_order = t.get("engine_order", 2.0)
     harmonics = t.get("harmonics", 3)
+    with _at("[excitation] engine_order"):
+        check_range("engine_order", engine_order, *ORDER_RANGE, lo_open=True)
+    with _at("[excitation] harmonics"):
+        h = check_range("harmonics", harmonics, 1, MAX_ORDERS)
+        if h != int(h):
+            raise ValueError(f"harmonics = {harmonics!r} must be a whole number in "
+                             f"[1, {MAX_ORDERS}]")
     if "measurement" in t and "orders" in t:
-        raise ValueError("[excitation]: give measurement or orders, not both")
+        raise _FileError("[excitation]", "give measurement or orders, not both")
     if "orders" in t:
         constant = []
         if not isinstance(t["orders"], list) or not t["orders"]:
-            raise ValueError("[excitation] orders must be a list of tables, e.g. "
+            raise _FileError("[excitation] orders", "must be a list of tables, e.g. "
                              "[{order = 2, accel_rad_s2 = 400, phase_deg = 0}]")
-        for item in t["orders"]:
+        for i, item in enumerate(t["orders"]):
+            place = f"[excitation] orders[{i}]"
             if not isinstance(item, dict) or "order" not in item or \
                     ("accel_rad_s2" in item) == ("amplitude_rad" in item) or \
                     set(item) - {"order", "accel_rad_s2", "amplitude_rad", "phase_deg"}:
-                raise ValueError(f"[excitation] orders entry {item!r} must hold order, one of "
-                                 "accel_rad_s2 or amplitude_rad, and optionally phase_deg")
-            order = check_range("order", item["order"], *ORDER_RANGE, lo_open=True)
-            if "accel_rad_s2" in item:
-                value, kind = check_range("accel_rad_s2", item["accel_rad_s2"], *ALPHA_RANGE), "accel"
-            else:
-                value, kind = check_range("amplitude_rad", item["amplitude_rad"], *THETA_RANGE), "disp"
-            phase = check_range("phase_deg", item.get("phase_deg", 0.0), -360.0, 360.0)
+                raise _FileError(place, f"{item!r:.100} must hold order, one of accel_rad_s2 or "
+                                 "amplitude_rad, and optionally phase_deg")
+            with _at(place):
+                order = check_range("order", item["order"], *ORDER_RANGE, lo_open=True)
+                if "accel_rad_s2" in item:
+                    value = check_range("accel_rad_s2", item["accel_rad_s2"], *ALPHA_RANGE)
+                    kind = "accel"
+                else:
+                    value = check_range("amplitude_rad", item["amplitude_rad"], *THETA_RANGE)
+                    kind = "disp"
+                phase = check_range("phase_deg", item.get("phase_deg", 0.0), -360.0, 360.0)
             constant.append((order, value, phase, kind))
-        return Excitation(engine_order=engine_order, harmonics=harmonics, constant=tuple(constant))
+        with _at("[excitation] orders"):
+            return Excitation(engine_order=engine_order, harmonics=harmonics,
+                              constant=tuple(constant))
     if measurement is not None:
-        return Excitation(engine_order=engine_order, harmonics=harmonics, order_map=measurement)
+        with _at("[excitation]"):
+            return Excitation(engine_order=engine_order, harmonics=harmonics,
+                              order_map=measurement)
     name = t.get("measurement")
     if not isinstance(name, str) or not name.strip():
-        raise ValueError("[excitation] needs measurement = \"FILE.csv\" (or \"sample\") or orders")
-    orders = [engine_order * n for n in range(1, int(check_range("harmonics", harmonics, 1,
-                                                                  MAX_ORDERS)) + 1)]
+        raise _FileError("[excitation] measurement",
+                         "give measurement = \"FILE.csv\" (or \"sample\"), or orders")
+    with _at("[excitation] measurement"):
+        check_name("the file name", name)
+    orders = [engine_order * n for n in range(1, int(h) + 1)]
     step = t.get("rpm_step", 100.0)
     if name == "sample":
         path = SAMPLE_RUNUP
     elif base_dir is None:
-        raise ValueError(f"[excitation] measurement = {name!r}: a gearbox given as text names no "
-                         "file; upload the measurement beside it, or use \"sample\"")
+        raise _FileError("[excitation] measurement", f"{name!r}: a gearbox given as text names "
+                         "no file; upload the measurement beside it, or use \"sample\"")
     else:
         path = Path(base_dir) / name
-    return Excitation(engine_order=engine_order, harmonics=harmonics,
-                      order_map=OrderMap.read(path, orders, step))
+    with _at(f"[excitation] measurement = {name!r:.200}"):
+        order_map = OrderMap.read(path, orders, step)
+    with _at("[excitation]"):
+        return Excitation(engine_order=engine_order, harmonics=harmonics, order_map=order_map)
 
 
-__all__ = ["Gear", "Gearbox", "Excitation", "excitation_from_table", "model_columns", "MAX_GEARS",
-           "DEFAULT_TRANSFER_PA_PER_NS", "DEFAULT_DURATION_S"]
+__all__ = ["Gear", "Gearbox", "Excitation", "excitation_from_table", "model_columns", "check_name",
+           "check_nesting", "check_sizes", "MAX_GEARS", "MAX_TOML_DEPTH", "MAX_TOML_ARRAY",
+           "MAX_TOML_STRING", "DEFAULT_TRANSFER_PA_PER_NS", "DEFAULT_DURATION_S"]

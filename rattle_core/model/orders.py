@@ -24,7 +24,8 @@ Method (order tracking)
     3. Each sample is put in the rpm bin of its speed averaged over one revolution; bins are
        ``rpm_step`` wide and centred on multiples of it.
     4. In each bin, the speed against angle is fitted by least squares: a smooth trend ``T(A)``
-       (a quadratic per contiguous stretch) and, for every half order up to twice the highest
+       (a quadratic per contiguous stretch: a visit of the bin, gaps and pieces of under one
+       revolution included) and, for every half order up to twice the highest
        analysed order and every order asked for, ``T(A)(c_k cos kA + s_k sin kA)``; the
        speed's order ``k`` is ``dθ/dt = −θ_k k Ω sin(kψ − φ_k)``, so
        ``θ_k = hypot(c_k, s_k) / k`` and ``φ_k = atan2(s_k, c_k) + 90°``.  Fitting every half
@@ -34,6 +35,13 @@ Method (order tracking)
        ``k θ(0)`` and is taken out (twice, since it depends on the phases).  The relative phase
        ``φ₄ − 2φ₂`` does not depend on it.
     The bin's ``rpm`` is the mean speed of its samples, and ``α_k`` is computed at that speed.
+Cost
+    Time and memory are linear in the samples: the file is parsed by pandas' C reader, every
+    pass goes :data:`BLOCK_ROWS` samples at a time through compiled kernels, and each bin's
+    least squares sums its normal equations block by block, so no design matrix exists whole.
+    A million samples take under 2 CPU-seconds and about 350 MB beside the interpreter
+    (``benchmarks/bench_orders.py``).  An analysis reports progress and can be cancelled
+    (``progress``, ``cancel`` of :meth:`OrderMap.from_csv`).
 Refusals
     A file is read whole and checked before anything is computed; a bad one raises
     ``ValueError`` naming the line at fault: missing columns, text or NaN where a number
@@ -45,16 +53,19 @@ Refusals
 """
 from __future__ import annotations
 
+import codecs
 import csv
 import dataclasses
 import gzip
 import io
 import math
 import os
+import zlib
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
+from numba import njit
 
 from .engine import RPM_RANGE
 from .params import check_range
@@ -67,6 +78,10 @@ MIN_REVOLUTIONS = 4
 GAP_FACTOR = 1.5
 MAX_ROWS = 5_000_000
 MAX_BYTES = 256_000_000
+#: Rows of a design matrix (or of any pass over the samples) handled at once.
+BLOCK_ROWS = 4096
+#: ``progress(done, total)`` of an analysis counts to this.
+PROGRESS_STEPS = 1000
 ORDER_RANGE = (0.0, 50.0)             # open at 0
 RPM_STEP_RANGE = (1.0, 10_000.0)
 MAX_ORDERS = 32
@@ -139,8 +154,12 @@ class OrderMap:
     @classmethod
     def from_arrays(cls, time_s: Any, speed_rpm: Any, orders: Any = DEFAULT_ORDERS,
                     rpm_step: float = 100.0, *, source: str = "arrays",
-                    lines: np.ndarray | None = None) -> "OrderMap":
+                    lines: np.ndarray | None = None,
+                    progress: Callable[[int, int], Any] | None = None,
+                    cancel: Callable[[], bool] | None = None) -> "OrderMap":
         """Order analysis of a sampled speed (module docstring: method and refusals).
+
+        Time and memory are linear in the samples (about 150 bytes per sample at most).
 
         Parameters
         ----------
@@ -156,7 +175,17 @@ class OrderMap:
             Label kept with the map.
         lines : ndarray, optional
             File line of each sample, for messages (default: the sample's index).
+        progress : callable(done, total), optional
+            Called as the analysis goes, ``total`` being :data:`PROGRESS_STEPS`.
+        cancel : callable() -> bool, optional
+            Polled as often; when it returns True the analysis raises :class:`AnalysisCancelled`.
         """
+        return cls._from_arrays(time_s, speed_rpm, orders, rpm_step, source, lines,
+                                _Steps(progress, cancel))
+
+    @classmethod
+    def _from_arrays(cls, time_s: Any, speed_rpm: Any, orders: Any, rpm_step: float, source: str,
+                     lines: np.ndarray | None, step: "_Steps") -> "OrderMap":
         orders_t = check_orders(orders)
         rpm_step = check_range("rpm_step", rpm_step, *RPM_STEP_RANGE)
         t = _as_column("time_s", time_s)
@@ -165,17 +194,30 @@ class OrderMap:
             raise ValueError(f"time_s has {t.size} samples but speed_rpm has {w.size}")
         where = (lambda i: f"line {int(lines[i])}") if lines is not None else (lambda i: f"sample {i}")
         _check_samples(t, w, max(orders_t), where)
-        return _analyse(t, w, orders_t, rpm_step, source, where)
+        return _analyse(t, w, orders_t, rpm_step, source, where, step)
 
     @classmethod
     def from_csv(cls, path: str | os.PathLike, orders: Any = DEFAULT_ORDERS,
-                 rpm_step: float = 100.0, label: str | None = None) -> "OrderMap":
+                 rpm_step: float = 100.0, label: str | None = None, *,
+                 progress: Callable[[int, int], Any] | None = None,
+                 cancel: Callable[[], bool] | None = None,
+                 max_rows: int | None = None) -> "OrderMap":
         """Order analysis of a CSV file with columns ``time_s`` and ``speed_rpm``; ``label``
-        names the file in messages and in :attr:`source` (default: its name)."""
+        names the file in messages and in :attr:`source` (default: its name).  ``progress``
+        and ``cancel`` as in :meth:`from_arrays` (reading is the first tenth); ``max_rows``
+        as in :func:`read_speed_csv`."""
         label = Path(path).name if label is None else label
-        t, w, lines = read_speed_csv(path, label)
+        step = _Steps(progress, cancel)
         try:
-            return cls.from_arrays(t, w, orders, rpm_step, source=label, lines=lines)
+            check_orders(orders)
+            check_range("rpm_step", rpm_step, *RPM_STEP_RANGE)
+        except ValueError as exc:
+            raise ValueError(f"{label}, {exc}") from None
+        step(0.0)
+        t, w, lines = read_speed_csv(path, label, max_rows)
+        step(0.1)
+        try:
+            return cls._from_arrays(t, w, orders, rpm_step, label, lines, step.within(0.1, 1.0))
         except ValueError as exc:
             raise ValueError(f"{label}, {exc}") from None
 
@@ -317,54 +359,159 @@ def _header(path: str | os.PathLike) -> list[str]:
     return []
 
 
-def read_speed_csv(path: str | os.PathLike, label: str | None = None
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+#: Spellings of NaN that ``float()`` reads, taken as numbers (and refused later as not finite).
+_NAN_TEXTS = ["nan", "NaN", "NAN", "Nan", "-nan", "+nan", "-NaN", "+NaN", "-NAN", "+NAN"]
+#: First bytes of a line that may still make it blank or a comment (after spaces, in quotes, or
+#: a row of empty fields): such lines are looked at one by one.
+_ODD_FIRST = np.frombuffer(b' \t,"\r\x0b\x0c', dtype=np.uint8)
+
+
+def _read_bytes(path: str | os.PathLike, name: str) -> bytes:
+    """The file's bytes (decompressed if ``.gz``), at most :data:`MAX_BYTES` of them."""
+    _check_size(path)
+    try:
+        if str(path).lower().endswith(".gz"):
+            with gzip.open(path, "rb") as f:
+                data = f.read(MAX_BYTES + 1)
+            if len(data) > MAX_BYTES:
+                raise ValueError(f"{name} decompresses to more than {MAX_BYTES} bytes; the allowed "
+                                 f"size is up to {MAX_BYTES} bytes")
+        else:
+            data = Path(path).read_bytes()
+    except (OSError, EOFError, zlib.error) as exc:
+        raise ValueError(f"{name} cannot be read: {exc}") from None
+    if not data.isascii():
+        try:
+            data.decode("utf-8")
+        except UnicodeDecodeError:
+            raise ValueError(f"{name} is not a UTF-8 text file") from None
+    if data.startswith(codecs.BOM_UTF8):
+        data = data[len(codecs.BOM_UTF8):]
+    if b"\n" not in data and b"\r" in data:  # old Mac line ends
+        data = data.replace(b"\r", b"\n")
+    return data
+
+
+def _csv_row(text: str) -> list[str]:
+    return next(csv.reader([text]), [])
+
+
+def _is_data(row: list[str]) -> bool:
+    """A row that holds data, or the header: not blank and not a ``#`` comment."""
+    return bool(row) and bool("".join(row).strip()) and not row[0].lstrip().startswith("#")
+
+
+class _Lines:
+    """Where each line of a file's bytes starts, found a slice at a time (no byte-sized index
+    of the whole file); a line's text on demand, for messages."""
+
+    SLICE = 1 << 24
+
+    def __init__(self, data: bytes) -> None:
+        self.data = data
+        buf = np.frombuffer(data, dtype=np.uint8)
+        parts = [np.zeros(1, np.int64)]
+        for c0 in range(0, len(data), self.SLICE):
+            parts.append(np.flatnonzero(buf[c0:c0 + self.SLICE] == 10) + (c0 + 1))
+        starts = np.concatenate(parts)
+        if starts[-1] == len(data):  # nothing after the last line end
+            starts = starts[:-1]
+        self.starts = starts
+        #: each line's first byte (a line end for an empty line)
+        self.first = buf[np.minimum(starts, max(len(data) - 1, 0))] if len(data) else buf[:0]
+
+    def text(self, i: int) -> str:
+        i = int(i)
+        end = int(self.starts[i + 1]) if i + 1 < self.starts.size else len(self.data)
+        return self.data[int(self.starts[i]):end].decode("utf-8", errors="replace").rstrip("\r\n")
+
+    def keep_bytes(self, keep: np.ndarray) -> bytes:
+        """The bytes of the lines where ``keep`` is True."""
+        sizes = np.diff(np.append(self.starts, len(self.data)))
+        buf = np.frombuffer(self.data, dtype=np.uint8)
+        return buf[np.repeat(keep, sizes)].tobytes()
+
+
+def read_speed_csv(path: str | os.PathLike, label: str | None = None,
+                   max_rows: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(time_s, speed_rpm, line numbers)`` of a measurement CSV, read whole and checked.
 
+    ``max_rows`` (default :data:`MAX_ROWS`) bounds the samples, and with them the memory of
+    the reading and of an analysis; it is checked before any number is parsed.
+
+    Lines are classified (header, data, blank, comment) on the raw bytes first, so that every
+    sample keeps its line number for messages; the numbers are parsed by pandas' C reader.
     Raises ``ValueError`` naming the file (or ``label``) and the line at fault (module
     docstring, "Refusals")."""
-    _check_size(path)
+    import pandas as pd
+
     name = Path(path).name if label is None else label
-    times: list[float] = []
-    speeds: list[float] = []
-    lines: list[int] = []
-    try:
-        with _open_text(path) as f:
-            reader = csv.reader(f)
-            header = None
-            for row in reader:
-                line = reader.line_num
-                if not row or not "".join(row).strip() or row[0].lstrip().startswith("#"):
-                    continue
-                if header is None:
-                    header = [c.strip() for c in row]
-                    missing = [c for c in COLUMNS if c not in header]
-                    if missing:
-                        raise ValueError(f"{name}, line {line}: the header lacks the column(s) "
-                                         f"{', '.join(missing)}; it needs time_s and speed_rpm, "
-                                         f"found {', '.join(header)[:200]}")
-                    it, iw = header.index("time_s"), header.index("speed_rpm")
-                    continue
-                if len(times) >= MAX_ROWS:
-                    raise ValueError(f"{name}, line {line}: more than {MAX_ROWS} samples; the "
-                                     f"allowed size is up to {MAX_ROWS} rows")
-                try:
-                    tv, wv = float(row[it]), float(row[iw])
-                except (ValueError, IndexError):
-                    raise ValueError(f"{name}, line {line}: time_s and speed_rpm must be numbers, "
-                                     f"got {','.join(row)[:80]!r}") from None
-                times.append(tv)
-                speeds.append(wv)
-                lines.append(line)
-    except UnicodeDecodeError:
-        raise ValueError(f"{name} is not a UTF-8 text file") from None
-    except (OSError, EOFError, gzip.BadGzipFile) as exc:
-        raise ValueError(f"{name} cannot be read: {exc}") from None
-    except csv.Error as exc:
-        raise ValueError(f"{name}: not a CSV file ({exc})") from None
-    if header is None:
+    lines = _Lines(_read_bytes(path, name))
+    keep = (lines.first != ord("#")) & (lines.first != 10)
+    for i in np.flatnonzero(keep & np.isin(lines.first, _ODD_FIRST)):
+        keep[i] = _is_data(_csv_row(lines.text(i)))
+    data_lines = np.flatnonzero(keep)
+    if data_lines.size == 0:
         raise ValueError(f"{name} holds no header line; it needs the columns time_s and speed_rpm")
-    return np.array(times), np.array(speeds), np.array(lines, dtype=np.int64)
+    h = int(data_lines[0])
+    header = [c.strip() for c in _csv_row(lines.text(h))]
+    missing = [c for c in COLUMNS if c not in header]
+    if missing:
+        raise ValueError(f"{name}, line {h + 1}: the header lacks the column(s) "
+                         f"{', '.join(missing)}; it needs time_s and speed_rpm, "
+                         f"found {', '.join(header)[:200]}")
+    it, iw = header.index("time_s"), header.index("speed_rpm")
+    body = data_lines[1:]  # index of each sample's line
+    limit = MAX_ROWS if max_rows is None else min(int(max_rows), MAX_ROWS)
+    if body.size > limit:
+        raise ValueError(f"{name}, line {int(body[limit]) + 1}: more than {limit} samples; "
+                         f"the allowed size is up to {limit} rows")
+    if body.size == 0:
+        return np.empty(0), np.empty(0), np.empty(0, np.int64)
+    if body.size == lines.starts.size - h - 1:  # every line after the header holds data
+        text, skip = lines.data, h + 1      # bytes: BytesIO shares them, no copy
+    else:
+        keep[:h + 1] = False
+        text, skip = lines.keep_bytes(keep), 0
+    del keep, data_lines
+    try:
+        frame = pd.read_csv(io.BytesIO(text), header=None, skiprows=skip,
+                            names=list(range(max(it, iw) + 1)), usecols=[it, iw], index_col=False,
+                            engine="c", keep_default_na=False, na_values=_NAN_TEXTS,
+                            skip_blank_lines=False, encoding="utf-8")
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as exc:
+        # a row too short or a quote left open: the first row that does not read says which
+        _first_bad_row(lines, body, it, iw, name, range(body.size))
+        raise ValueError(f"{name}: not a CSV file ({' '.join(str(exc).split())})") from None
+    del text
+    columns = []
+    for j in (it, iw):
+        col = frame[j]
+        if col.size != body.size:
+            _first_bad_row(lines, body, it, iw, name, range(body.size))
+            raise ValueError(f"{name}: not a CSV file (read {col.size} rows of {body.size})")
+        if pd.api.types.is_numeric_dtype(col.dtype):
+            columns.append(col.to_numpy(dtype=np.float64))
+            continue
+        values = pd.to_numeric(col, errors="coerce").to_numpy(dtype=np.float64)
+        unread = np.flatnonzero(np.isnan(values))
+        _first_bad_row(lines, body, it, iw, name, unread)
+        for i in unread:  # every one reads as a float (NaN spelt out, or "1_000")
+            values[i] = float(col.iloc[i])
+        columns.append(values)
+    return columns[0], columns[1], body + 1
+
+
+def _first_bad_row(lines: _Lines, body: np.ndarray, it: int, iw: int, name: str, rows) -> None:
+    """Raise the message of the first of ``rows`` (indices of samples, increasing) whose
+    time or speed is not a number; return if they all are."""
+    for r in rows:
+        row = _csv_row(lines.text(body[r]))
+        try:
+            float(row[it]), float(row[iw])
+        except (ValueError, IndexError):
+            raise ValueError(f"{name}, line {int(body[r]) + 1}: time_s and speed_rpm must be "
+                             f"numbers, got {','.join(row)[:80]!r}") from None
 
 
 # ----- checks and analysis ----------------------------------------------------------------
@@ -417,108 +564,296 @@ def _check_samples(t: np.ndarray, w: np.ndarray, max_order: float, where) -> Non
                          "orders)")
 
 
+class AnalysisCancelled(Exception):
+    """An order analysis stopped because its ``cancel`` callback asked it to."""
+
+
+class _Steps:
+    """Progress of one analysis, ``progress(done, PROGRESS_STEPS)``, and its cancel check;
+    :meth:`within` maps a part of the work onto a share of the bar."""
+
+    def __init__(self, progress: Callable[[int, int], Any] | None,
+                 cancel: Callable[[], bool] | None, lo: float = 0.0, hi: float = 1.0) -> None:
+        self.progress, self.cancel, self.lo, self.hi = progress, cancel, lo, hi
+        self.last = [-1]
+
+    def within(self, lo: float, hi: float) -> "_Steps":
+        part = _Steps(self.progress, self.cancel, self.lo + (self.hi - self.lo) * lo,
+                      self.lo + (self.hi - self.lo) * hi)
+        part.last = self.last
+        return part
+
+    def __call__(self, fraction: float) -> None:
+        if self.cancel is not None and self.cancel():
+            raise AnalysisCancelled("the order analysis was cancelled")
+        f = self.lo + (self.hi - self.lo) * min(max(fraction, 0.0), 1.0)
+        done = int(PROGRESS_STEPS * f)
+        if self.progress is not None and done != self.last[0]:
+            self.last[0] = done
+            self.progress(done, PROGRESS_STEPS)
+
+
+def _moving_mean(x: np.ndarray, win: int) -> np.ndarray:
+    """Mean of ``x`` over ``win`` samples centred as ``np.convolve(..., mode="same")`` centres
+    them; near either end, of the samples the window holds."""
+    n = x.size
+    ref = float(x[0]) if n else 0.0  # partial sums of the deviation keep their digits
+    total = np.empty(n + 1)
+    total[0] = 0.0
+    np.cumsum(x - ref, out=total[1:])
+    i = np.arange(n)
+    lo = np.maximum(i - win // 2, 0)
+    hi = np.minimum(i + (win - 1) // 2, n - 1) + 1
+    return (total[hi] - total[lo]) / (hi - lo) + ref
+
+
+def _groups(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(values, bounds, order)``: ``order[bounds[g]:bounds[g + 1]]`` are the increasing
+    indices where ``keys == values[g]`` (one linear-time sort of integers)."""
+    order = np.argsort(keys, kind="stable")
+    sk = keys[order]
+    cut = np.flatnonzero(sk[1:] != sk[:-1]) + 1
+    bounds = np.concatenate([[0], cut, [keys.size]]).astype(np.int64)
+    return sk[bounds[:-1]], bounds, order
+
+
+class _Harmonics:
+    """The fitted orders as the compiled kernels take them: each half order ``m/2`` by the
+    power ``m`` of ``exp(iA/2)`` (one sine and cosine per sample, then products), any other
+    order directly."""
+
+    def __init__(self, fit_orders: list[float]) -> None:
+        k = np.asarray(fit_orders, dtype=np.float64)
+        twice = 2.0 * k
+        half = np.nonzero(twice == np.round(twice))[0]
+        power = np.round(twice[half]).astype(np.int64)
+        top = int(power.max()) if power.size else 0
+        #: column (order index) of each power of exp(iA/2), or -1
+        self.power_col = np.full(top + 1, -1, np.int64)
+        self.power_col[power] = half
+        self.other_col = np.nonzero(twice != np.round(twice))[0].astype(np.int64)
+        self.other_k = k[self.other_col]
+
+
+@njit(cache=True, nogil=True)
+def _design_rows(a, psi, y, weight, use_weight, r0, s_lo, s_hi, s_mean, s_width, power_col,
+                 other_col, other_k, out):
+    """Rows ``r0 …`` of a bin's design matrix into ``out``: per stretch ``s`` the trend
+    ``1, u, u²`` (``u = (a − mean_s)/width_s``, zero outside the stretch), then ``cos kψ`` and
+    ``sin kψ`` of every fitted order, times ``weight`` if ``use_weight``; last, ``y``."""
+    nt = 3 * s_lo.size
+    s = 0
+    for r in range(out.shape[0]):
+        g = r0 + r
+        for c in range(nt):
+            out[r, c] = 0.0
+        while s < s_lo.size - 1 and g >= s_hi[s]:
+            s += 1
+        if s_lo[s] <= g < s_hi[s]:
+            u = (a[g] - s_mean[s]) / s_width[s]
+            out[r, 3 * s] = 1.0
+            out[r, 3 * s + 1] = u
+            out[r, 3 * s + 2] = u * u
+        w = weight[g] if use_weight else 1.0
+        c1 = math.cos(0.5 * psi[g])
+        s1 = math.sin(0.5 * psi[g])
+        cm, sm = c1, s1
+        for m in range(1, power_col.size):
+            col = power_col[m]
+            if col >= 0:
+                out[r, nt + 2 * col] = cm * w
+                out[r, nt + 2 * col + 1] = sm * w
+            cm, sm = cm * c1 - sm * s1, sm * c1 + cm * s1
+        for j in range(other_col.size):
+            ka = psi[g] * other_k[j]
+            out[r, nt + 2 * other_col[j]] = math.cos(ka) * w
+            out[r, nt + 2 * other_col[j] + 1] = math.sin(ka) * w
+        out[r, out.shape[1] - 1] = y[g]
+
+
+@njit(cache=True, nogil=True)
+def _fluctuation(a, owner, amp_cos, amp_sin, amp, phase_rad, power_col, other_col, other_k, out):
+    """``θ(a) = Σ_k θ_k cos(k a − φ_k)`` per sample, with the orders of its bin ``owner``:
+    ``amp_cos = θ_k cos φ_k``, ``amp_sin = θ_k sin φ_k`` per bin and order."""
+    for r in range(a.size):
+        q = owner[r]
+        c1 = math.cos(0.5 * a[r])
+        s1 = math.sin(0.5 * a[r])
+        cm, sm = c1, s1
+        acc = 0.0
+        for m in range(1, power_col.size):
+            col = power_col[m]
+            if col >= 0:
+                acc += amp_cos[q, col] * cm + amp_sin[q, col] * sm
+            cm, sm = cm * c1 - sm * s1, sm * c1 + cm * s1
+        for j in range(other_col.size):
+            c = other_col[j]
+            acc += amp[q, c] * math.cos(a[r] * other_k[j] - phase_rad[q, c])
+        out[r] = acc
+
+
 def _analyse(t: np.ndarray, w: np.ndarray, orders: tuple[float, ...], rpm_step: float,
-             source: str, where) -> OrderMap:
+             source: str, where, step: _Steps | None = None) -> OrderMap:
+    """The method of the module docstring, in time and memory linear in the samples: every
+    pass over the samples goes :data:`BLOCK_ROWS` at a time."""
     from scipy.integrate import cumulative_simpson
     from scipy.interpolate import CubicSpline
 
+    step = step or _Steps(None, None)
     omega = w * (2.0 * math.pi / 60.0)
     angle = cumulative_simpson(omega, x=t, initial=0.0)
-    if np.any(np.diff(angle) <= 0):
-        i = int(np.nonzero(np.diff(angle) <= 0)[0][0]) + 1
-        raise ValueError(f"{where(i)}: the speed varies too fast between samples to integrate")
+    bad = np.flatnonzero(np.diff(angle) <= 0)
+    if bad.size:
+        raise ValueError(f"{where(int(bad[0]) + 1)}: the speed varies too fast between samples to "
+                         "integrate")
     # uniform in angle, as densely as the file is sampled on average
     n = max(int(round(t.size)), 2)
     grid = np.linspace(0.0, angle[-1], n)
     speed = CubicSpline(angle, omega)(grid)
-    sample_of = np.minimum(np.searchsorted(angle, grid), t.size - 1)
+    del omega
+    step(0.2)
+
+    def sample_of(i: int) -> int:
+        return min(int(np.searchsorted(angle, grid[i])), t.size - 1)
     per_rev = n / (angle[-1] / (2 * math.pi))
     win = max(1, int(round(per_rev)))
-    smooth = np.convolve(speed, np.ones(win) / win, mode="same")
-    # the half-window at either end averages fewer samples
-    edge = np.convolve(np.ones_like(speed), np.ones(win) / win, mode="same")
-    smooth = smooth / edge
-    rpm_smooth = smooth * 60.0 / (2 * math.pi)
+    rpm_smooth = _moving_mean(speed, win) * (60.0 / (2 * math.pi))
     bins = np.round(rpm_smooth / rpm_step).astype(np.int64)
-    present = np.unique(bins)
+    del rpm_smooth
+    present, bounds, by_bin = _groups(bins)
     fit_orders = sorted(set(orders) | {0.5 * m for m in range(1, int(4 * max(orders)) + 1)})
-    kept = []
-    for b in present:
-        sel = np.nonzero(bins == b)[0]
+    kept, members = [], []
+    for g, b in enumerate(present):
+        sel = by_bin[bounds[g]:bounds[g + 1]]
         revs = sel.size / per_rev
         if revs < MIN_REVOLUTIONS:
-            if b in (present[0], present[-1]):
+            if g in (0, present.size - 1):
                 continue  # a partly covered end bin
-            lines = (where(sample_of[sel[0]]), where(sample_of[sel[-1]]))
+            lines = (where(sample_of(sel[0])), where(sample_of(sel[-1])))
             raise ValueError(f"{lines[0]} to {lines[1]}: the {b * rpm_step:g} rpm bin holds "
                              f"{revs:.2f} revolutions; at least {MIN_REVOLUTIONS} are needed (the "
                              "speed changes too fast for rpm_step; choose a wider rpm_step)")
-        kept.append(b)
+        kept.append(int(b))
+        members.append(sel)
     if not kept:
         raise ValueError(f"the measurement covers fewer than {MIN_REVOLUTIONS} revolutions in "
                          f"every {rpm_step:g} rpm bin; measure longer or choose a wider rpm_step")
     kept_arr = np.array(kept)
-    # each sample's nearest analysed bin (samples of a dropped end bin borrow its neighbour's)
-    owner = kept_arr[np.argmin(np.abs(bins[:, None] - kept_arr[None, :]), axis=1)]
+    # each sample's nearest analysed bin, the lower one of two as near (samples of a dropped
+    # end bin borrow its neighbour's)
+    upper = np.minimum(np.searchsorted(kept_arr, bins), kept_arr.size - 1)
+    lower = np.maximum(upper - 1, 0)
+    owner = np.where(np.abs(kept_arr[lower] - bins) <= np.abs(kept_arr[upper] - bins), lower, upper)
+    del bins, upper, lower
+    harmonics = _Harmonics(fit_orders)
+    fitted = sum(sel.size for sel in members)
+    work = 2 * (2 * fitted + n)
+    done = [0]
+
+    def advance(rows: int) -> None:
+        done[0] += rows
+        step(0.2 + 0.8 * done[0] / work)
     psi = grid
     for _ in range(2):
-        fits = {b: _fit_bin(grid[bins == b], psi[bins == b], speed[bins == b], fit_orders)
-                for b in kept}
+        fits = [_fit_bin(grid[sel], psi[sel], speed[sel], fit_orders, harmonics, advance)
+                for sel in members]
         # the fluctuation θ(A) the fits describe; ψ = A − θ(A) + θ(0) is the mean angle
-        theta = np.zeros(grid.size)
-        for b, (_, th, ph) in fits.items():
-            sel = owner == b
-            theta[sel] = np.sum(th[None, :] * np.cos(np.outer(grid[sel], fit_orders)
-                                                    - np.deg2rad(ph)[None, :]), axis=1)
+        amp = np.array([f[1] for f in fits])
+        ph = np.deg2rad(np.array([f[2] for f in fits]))
+        theta = np.empty(n)
+        amp_cos, amp_sin = amp * np.cos(ph), amp * np.sin(ph)
+        for r0 in range(0, n, BLOCK_ROWS):
+            r1 = min(r0 + BLOCK_ROWS, n)
+            _fluctuation(grid[r0:r1], owner[r0:r1], amp_cos, amp_sin, amp, ph, harmonics.power_col,
+                         harmonics.other_col, harmonics.other_k, theta[r0:r1])
+            advance(r1 - r0)
         psi = grid - theta + theta[0]
+        del theta
     idx = [fit_orders.index(o) for o in orders]
-    rpm = np.array([fits[b][0] for b in kept])
-    amp = np.array([fits[b][1][idx] for b in kept])
-    phase = _wrap(np.array([fits[b][2][idx] for b in kept]))
+    rpm = np.array([f[0] for f in fits])
+    amp = np.array([f[1][idx] for f in fits])
+    phase = _wrap(np.array([f[2][idx] for f in fits]))
     k = np.asarray(orders)
     accel = amp * (k[None, :] * rpm[:, None] * 2 * math.pi / 60.0) ** 2
     return OrderMap(rpm=rpm, orders=k.astype(np.float64), amplitude_rad=amp, accel_rad_s2=accel,
                     phase_deg=phase, rpm_step=rpm_step, source=source)
 
 
-def _lstsq(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Least squares by the normal equations: the columns are of order one and nearly
-    orthogonal over the revolutions of a bin, and a factorisation of the tall matrix costs ten to
-    a hundred times more (OpenBLAS threads on a busy machine)."""
-    return np.linalg.solve(x.T @ x, x.T @ y)
+def _stretches(a: np.ndarray) -> np.ndarray:
+    """Edges of the contiguous stretches of a bin's angles ``a`` (increasing): a run-up and a
+    run-down visit a bin twice, and each visit gets its own trend.  A gap of under one
+    revolution is the same visit (the speed's noise took a few samples across the bin's edge),
+    and so is a piece of under one revolution, which joins the stretch before it (the first,
+    the one after it): a trend needs samples to be fitted."""
+    if a.size < 2:
+        return np.array([0, a.size], np.int64)
+    da = np.diff(a)
+    step = float(np.median(da))
+    breaks = np.flatnonzero(da > max(2 * step, 2 * math.pi)) + 1
+    edges = np.concatenate([[0], breaks, [a.size]]).astype(np.int64)
+    per_rev = 2 * math.pi / step if step > 0 else 1.0
+    while edges.size > 2:
+        size = np.diff(edges)
+        short = np.flatnonzero(size < per_rev)
+        if short.size == 0:
+            break
+        i = int(short[0])
+        edges = np.delete(edges, i if i > 0 else 1)
+    return edges
 
 
-def _fit_bin(a: np.ndarray, psi: np.ndarray, speed: np.ndarray, fit_orders: list[float]
+def _fit_bin(a: np.ndarray, psi: np.ndarray, speed: np.ndarray, fit_orders: list[float],
+             harmonics: _Harmonics, advance: Callable[[int], None]
              ) -> tuple[float, np.ndarray, np.ndarray]:
     """Least-squares orders of one bin: ``(mean rpm, θ_k, φ_k [deg])`` for every fitted order,
     the speed ``speed`` sampled at angles ``a``, the orders referred to the mean angle ``psi``
-    (module docstring, step 4)."""
-    # contiguous stretches of the bin (a run-up and a run-down visit it twice) get own trends
-    breaks = np.nonzero(np.diff(a) > 2 * np.median(np.diff(a)))[0] + 1 if a.size > 1 else []
-    trend_cols = []
-    for p in np.split(np.arange(a.size), breaks):
-        u = (a - a[p].mean()) / max(float(np.ptp(a[p])), 1e-9)
-        inside = np.zeros(a.size)
-        inside[p] = 1.0
-        trend_cols += [inside, inside * u, inside * u * u]
-    trend = np.array(trend_cols).T
-    kpsi = np.outer(psi, fit_orders)
-    harm = np.empty((a.size, 2 * len(fit_orders)))
-    harm[:, 0::2] = np.cos(kpsi)
-    harm[:, 1::2] = np.sin(kpsi)
-    nt = trend.shape[1]
-    coef = _lstsq(np.hstack([trend, harm]), speed)
-    smooth = trend @ coef[:nt]
+    (module docstring, step 4).
+
+    The normal equations are summed a block of rows at a time, so the design matrix (trend and
+    two columns per fitted order) never exists whole: memory stays :data:`BLOCK_ROWS` times its
+    width whatever the bin holds.  They are well conditioned (columns of order one, nearly
+    orthogonal over the bin's revolutions), and a factorisation of the tall matrix would cost
+    ten to a hundred times more."""
+    edges = _stretches(a)
+    stretches = [(int(p0), int(p1), float(a[p0:p1].mean()), max(float(np.ptp(a[p0:p1])), 1e-9))
+                 for p0, p1 in zip(edges[:-1], edges[1:])]
+    nt = 3 * len(stretches)
+    ncol = nt + 2 * len(fit_orders)
+    s_lo, s_hi = (np.array([st[i] for st in stretches], np.int64) for i in (0, 1))
+    s_mean, s_width = (np.array([st[i] for st in stretches]) for i in (2, 3))
+    h = harmonics
+
+    def solve(weight: np.ndarray | None) -> np.ndarray:
+        # the speed rides as the last column: one product gives XᵀX and Xᵀy
+        gram = np.zeros((ncol + 1, ncol + 1))
+        x = np.empty((min(BLOCK_ROWS, a.size), ncol + 1))
+        for r0 in range(0, a.size, BLOCK_ROWS):
+            r1 = min(r0 + BLOCK_ROWS, a.size)
+            xb = x[:r1 - r0]
+            _design_rows(a, psi, speed, a if weight is None else weight, weight is not None, r0,
+                         s_lo, s_hi, s_mean, s_width, h.power_col, h.other_col, h.other_k, xb)
+            gram += xb.T @ xb
+            advance(r1 - r0)
+        return np.linalg.solve(gram[:ncol, :ncol], gram[:ncol, ncol])
+
+    def trend(coef: np.ndarray) -> np.ndarray:
+        """The fitted trend T(A) at every sample of the bin."""
+        out = np.zeros(a.size)
+        for (p0, p1, mean, width), c in zip(stretches, coef[:nt].reshape(-1, 3)):
+            u = (a[p0:p1] - mean) / width
+            out[p0:p1] = c[0] + c[1] * u + c[2] * (u * u)
+        return out
+    smooth = trend(solve(None))
     # second pass: each order's speed is θ_k k Ω(t) sin(...), proportional to the trend
     scale = float(smooth.mean())
-    coef = _lstsq(np.hstack([trend, harm * (smooth / scale)[:, None]]), speed)
-    smooth = trend @ coef[:nt]
+    coef = solve(smooth / scale)
+    smooth = trend(coef)
     c, s = coef[nt::2], coef[nt + 1::2]
     amp = np.hypot(c, s) / np.asarray(fit_orders) / scale
     phase = np.rad2deg(np.arctan2(s, c)) + 90.0
     return float(smooth.mean() * 60.0 / (2 * math.pi)), amp, phase
 
 
-__all__ = ["OrderMap", "read_speed_csv", "check_orders", "DEFAULT_ORDERS", "TABLE_COLUMNS",
+__all__ = ["OrderMap", "AnalysisCancelled", "PROGRESS_STEPS", "read_speed_csv", "check_orders", "DEFAULT_ORDERS", "TABLE_COLUMNS",
            "SAMPLE_RUNUP",
            "MIN_SAMPLES_PER_CYCLE", "MIN_REVOLUTIONS", "MAX_ROWS", "MAX_BYTES"]

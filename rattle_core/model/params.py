@@ -15,8 +15,8 @@ import json
 import math
 import numbers
 import re
-from collections.abc import Mapping, Set
-from typing import Any, Iterable
+from collections.abc import Iterator, Mapping, Set
+from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -105,6 +105,39 @@ def check_reals(label: str, values: Any) -> np.ndarray:
     if not np.all(np.isfinite(vals)):
         raise ValueError(f"{label} must all be finite, got {float(vals[~np.isfinite(vals)][0])!r}")
     return vals
+
+
+class ArgumentTypeError(TypeError, ValueError):
+    """An argument of the wrong kind: a ``TypeError`` that callers catching ``ValueError``, as
+    every bad input was, still catch."""
+
+
+def check_progress(value: Any, name: str = "progress") -> Callable[..., Any] | None:
+    """``value`` if it is None or callable (``progress(done, total)``); else
+    :class:`ArgumentTypeError` naming ``name``, raised before any work rather than at the
+    first report."""
+    if value is None or callable(value):
+        return value
+    raise ArgumentTypeError(f"{name} = {value!r:.60} must be a callable progress(done, total) "
+                            "or None")
+
+
+def check_cancel(value: Any, name: str = "cancel") -> Callable[[], bool] | None:
+    """A ``cancel`` argument as a callable polled for True, or None.
+
+    Taken: None, an object with ``is_set()`` (a ``threading.Event``; its ``is_set`` is
+    returned), or a callable returning a bool.  Anything else raises
+    :class:`ArgumentTypeError` naming ``name``.
+    """
+    if value is None:
+        return None
+    is_set = getattr(value, "is_set", None)
+    if callable(is_set):
+        return is_set
+    if callable(value):
+        return value
+    raise ArgumentTypeError(f"{name} = {value!r:.60} must be a threading.Event (anything with "
+                            "is_set()), a callable returning True to stop, or None")
 
 
 def check_bool(name: str, value: Any) -> bool:
@@ -214,7 +247,7 @@ class RattleParams:
 
     @classmethod
     def paper(cls, lam: float, r: float = 0.65, j: float = 8.0,
-              amplitudes: Iterable[float] = (1.0,), phases_deg: Iterable[float] = (0.0,),
+              amplitudes: Sequence[float] = (1.0,), phases_deg: Sequence[float] = (0.0,),
               v_stick: float = 1e-6, noise: float = NOISE_DEFAULT, *, h2: float | None = None,
               phi2: float = 0.0) -> "RattleParams":
         """Parameters given in the paper's phase convention (:mod:`rattle_core.model.phases`).
@@ -223,6 +256,8 @@ class RattleParams:
         paper's Figures 4–8: ``RattleParams.paper(lam=3.3, h2=0.25, phi2=45)``); they replace
         ``amplitudes`` and ``phases_deg``, which must then be left at their defaults.
         """
+        amplitudes = _as_tuple("amplitudes", amplitudes)
+        phases_deg = _as_tuple("phases_deg", phases_deg)
         if h2 is not None:
             if tuple(amplitudes) != (1.0,) or tuple(phases_deg) != (0.0,):
                 raise ValueError("h2/phi2 give the harmonics: leave amplitudes and phases_deg out")
@@ -284,6 +319,10 @@ def _as_tuple(name: str, seq: Any) -> tuple:
     # a dict's keys or a set's order would silently stand in for the harmonics' values
     if isinstance(seq, (str, bytes, Mapping, Set)):
         raise ValueError(f"{name} must be a sequence of numbers, got {seq!r}")
+    if isinstance(seq, Iterator):
+        # a generator is used up by its first reading: a second would see no harmonics
+        raise ArgumentTypeError(f"{name} must be a sequence or array of numbers (a list, a tuple, "
+                                f"a numpy array), got a {type(seq).__name__}")
     if np.isscalar(seq):
         return (seq,)
     try:

@@ -6,13 +6,24 @@ Key
     :data:`~rattle_core.batch.sweep.SCHEMA_VERSION` and
     :data:`~rattle_core.solver.trajectory.SOLVER_VERSION`.  A changed solver or schema therefore
     never serves a stale result.
+Signature
+    Every entry is signed with HMAC-SHA-256 under the user's secret cache key
+    (:mod:`rattle_core.store.signing`: ``RATTLE_CACHE_KEY``, else a file of mode 0600 in the
+    config directory, made on first use) over the request's full key and everything the entry
+    holds: every array's name, type, shape and bytes, the stored request among them.  Whoever
+    can write to the cache directory but cannot read the key can therefore not make an entry
+    that is served: not by changing arrays and recomputing the digest, not by changing the
+    stored request, not by copying in an entry of another cache (another key), and not by
+    renaming an entry to another request's file name.  When no key can be made (the config
+    directory is not writable), nothing is served or stored: results are computed.
 Match
     An entry is served only when its declared array sizes pass
     :func:`~rattle_core.store.files.read_checked` before it is loaded, its digest matches its
-    content, it holds every field its kind requires, its stored request equals the one asked,
-    field by field, and its arrays hold the values asked for; the file name (the key's first 32
-    hex digits) only finds it.  An entry that is unreadable, truncated, forged, foreign or
-    mismatched is a miss: recomputed and overwritten, never an error.  Something else standing at an entry's path (a directory, a
+    content, its signature is this user's for this request, it holds every field its kind
+    requires, its stored request equals the one asked, field by field, and its arrays hold the
+    values asked for; the file name (the key's first 32 hex digits) only finds it.  An entry
+    that is unreadable, truncated, forged, foreign or mismatched is a miss: recomputed and
+    overwritten, never an error.  Something else standing at an entry's path (a directory, a
     socket) is left alone: the result is computed and returned without being stored.
 Writes
     Compressed ``.npz`` (:mod:`rattle_core.store.files`), atomic; a read-only or full disk costs
@@ -48,13 +59,14 @@ from ..batch.sweep import SCHEMA_VERSION, SweepResult, sweep, validate_sweep_arg
 from ..model.params import RattleParams, _canon, canonical_hash
 from ..solver.trajectory import SOLVER_VERSION
 from .files import (_SUMMARY_TYPES, TMP_PREFIX, load_map, load_result, read_checked,
-                    save_map, save_result)
+                    save_map, save_result, signing)
+from .signing import secret
 
 #: Default size limit of the cache, in megabytes (``RATTLE_CACHE_SIZE_MB`` overrides it).
 DEFAULT_SIZE_MB = 1024
 SIZE_MB_RANGE = (0.0, 1.0e7)
 #: File-name prefixes of cache entries; nothing else in the directory is ever deleted.
-PREFIXES = ("sweep", "map", "cont", "gearbox")
+PREFIXES = ("sweep", "map", "cont", "gearbox", "atlas")
 _SWEEP_SETTINGS = ("transient", "record", "mode", "x0", "v0")
 _MAP_SETTINGS = ("transient", "record", "x0", "v0", "decimals")
 #: What every sweep and map entry must hold (basins also ``f_attractor``).
@@ -153,16 +165,21 @@ def cached(prefix: str, request: dict, compute: Callable[[], Any],
     wanted = _canon(request)
     folder = Path(directory) if directory is not None else cache_dir()
     path = folder / f"{prefix}-{key[:32]}.npz"
-    storable = True
-    if _is_file(path):
+    context = f"{prefix}:{key}"  # what the signature binds an entry to
+    try:
+        mac_key: bytes | None = secret()
+    except OSError:
+        mac_key = None  # no key can be made: nothing can be verified, so nothing is cached
+    storable = mac_key is not None
+    if mac_key is not None and _is_file(path):
         try:
-            result, meta = load(read_checked(path, required, limit))
+            result, meta = load(read_checked(path, required, limit, mac_key, context))
             if meta.get("key") == key and meta.get("request") == wanted and holds(result):
                 _touch(path)
                 return result, True
         except Exception:
             pass  # unreadable, forged or foreign entry: recompute and overwrite it below
-    elif os.path.lexists(path):
+    elif os.path.lexists(path) and not _is_file(path):
         storable = False
     if _READ_ONLY.get():
         raise NotCached(f"{prefix} {key[:12]} is not in the cache")
@@ -170,7 +187,8 @@ def cached(prefix: str, request: dict, compute: Callable[[], Any],
     if storable and not result.cancelled:
         try:
             folder.mkdir(parents=True, exist_ok=True)
-            save(path, result, key=key, request=wanted)
+            with signing(mac_key, context):
+                save(path, result, key=key, request=wanted)
             evict(folder, keep=(path,))
         except OSError:
             pass  # a read-only or full disk must not cost the user the computed result
@@ -243,8 +261,8 @@ def cached_map(kind: str, params: RattleParams, x_name: str, x_values, y_name: s
 
 @dataclasses.dataclass(frozen=True)
 class Entry:
-    """One cache file: its path, kind (``sweep``, ``map``, ``cont``, a continued branch, or
-    ``gearbox``, a verdict), size in bytes and last use."""
+    """One cache file: its path, kind (``sweep``, ``map``, ``cont``, a continued branch,
+    ``gearbox``, a verdict, or ``atlas``, bifurcation curves), size in bytes and last use."""
 
     path: Path
     kind: str

@@ -8,10 +8,20 @@ writer can be told from one being written) and moved into place with ``os.replac
 reader never sees half a file, and read with ``allow_pickle=False``.  :func:`read_checked`
 reads a file only after its declared array sizes passed a limit, and returns it only when
 its digest matches.
+
+A cache entry is also signed: HMAC-SHA-256 (:func:`content_mac`) under the user's cache key
+(:mod:`rattle_core.store.signing`) of the entry's request key and the same content, kept as
+the zip's comment (so readers of the arrays see no extra member).  An entry changed by anyone
+without the key, written under another key, or moved to another request's name fails
+:func:`read_checked`.  Inside ``with signing(key, context):`` every file :func:`atomic_savez`
+writes is signed; the cache does this around its writes.
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import hashlib
+import hmac
 import io
 import json
 import math
@@ -60,16 +70,60 @@ def content_digest(arrays: dict) -> str:
     return h.hexdigest()
 
 
+#: The array that describes the content rather than belongs to it.
+_SEALS = ("digest",)
+#: What the zip comment of a signed file starts with, before the MAC's hex.
+_MAC_PREFIX = "hmac-sha256:"
+#: Domain of the MAC, so it signs nothing but an entry of this format.
+_MAC_DOMAIN = b"rattle-explorer npz entry, HMAC-SHA-256, v1\0"
+
+
+def content_mac(arrays: dict, key: bytes, context: str) -> str:
+    """HMAC-SHA-256 under ``key`` of ``context`` (what the entry answers: its cache key) and
+    every array's name, dtype, shape and bytes (the ``digest`` excluded)."""
+    h = hmac.new(key, _MAC_DOMAIN, "sha256")
+    ctx = context.encode()
+    h.update(len(ctx).to_bytes(8, "big") + ctx)
+    for name in sorted(arrays):
+        if name in _SEALS:
+            continue
+        a = np.ascontiguousarray(arrays[name])
+        head = json.dumps([name, a.dtype.str, list(a.shape)]).encode()
+        h.update(len(head).to_bytes(8, "big") + head)
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+_SIGNER: contextvars.ContextVar[tuple[bytes, str] | None] = contextvars.ContextVar(
+    "signer", default=None)
+
+
+@contextlib.contextmanager
+def signing(key: bytes, context: str):
+    """Within the block, :func:`atomic_savez` signs what it writes (:func:`content_mac`)."""
+    token = _SIGNER.set((key, context))
+    try:
+        yield
+    finally:
+        _SIGNER.reset(token)
+
+
 def atomic_savez(path: Path, arrays: dict) -> None:
-    """Write a compressed npz with its :func:`content_digest` to a temporary file beside
-    ``path``, then move it into place."""
-    arrays = {k: np.asarray(v) for k, v in arrays.items() if k != "digest"}
+    """Write a compressed npz with its :func:`content_digest` (and, inside :func:`signing`,
+    its :func:`content_mac`) to a temporary file beside ``path``, then move it into place."""
+    arrays = {k: np.asarray(v) for k, v in arrays.items() if k not in _SEALS}
+    signer = _SIGNER.get()
+    mac = content_mac(arrays, *signer) if signer is not None else None
     arrays["digest"] = np.array(content_digest(arrays))
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f"{TMP_PREFIX}{os.getpid()}-",
                                suffix=".npz")
     try:
-        with os.fdopen(fd, "wb") as f:
+        with os.fdopen(fd, "w+b") as f:
             np.savez_compressed(f, **arrays)
+            if mac is not None:
+                f.seek(0)
+                with zipfile.ZipFile(f, "a") as zf:
+                    zf.comment = (_MAC_PREFIX + mac).encode()
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
@@ -103,13 +157,16 @@ def _declared(data: bytes, limit: int) -> None:
 
 
 def read_checked(path: Path | str, required: tuple[str, ...] = (),
-                 limit: int | None = None) -> io.BytesIO:
+                 limit: int | None = None, key: bytes | None = None,
+                 context: str = "") -> io.BytesIO:
     """The bytes of an npz written by :func:`atomic_savez`, checked, for ``np.load``.
 
     Before any array is loaded, the declared sizes must agree with the headers and stay within
     ``limit`` bytes (default: :data:`DECLARED_FLOOR`, or :data:`DECLARED_RATIO` times the
-    file's size if more).  Then the ``digest`` must match the content and every name in
-    ``required`` must be present.  Raises :class:`CorruptFile` otherwise.
+    file's size if more).  Then the ``digest`` must match the content, every name in
+    ``required`` must be present and, given a ``key``, the ``mac`` must be the
+    :func:`content_mac` of ``context`` and the content under that key.  Raises
+    :class:`CorruptFile` otherwise.
     """
     size = os.stat(path).st_size
     if limit is None:
@@ -120,6 +177,8 @@ def read_checked(path: Path | str, required: tuple[str, ...] = (),
         data = f.read(limit + 1)
     try:
         _declared(data, limit)
+        with zipfile.ZipFile(io.BytesIO(data)) as zf:
+            comment = zf.comment
         with np.load(io.BytesIO(data), allow_pickle=False) as z:
             arrays = {k: z[k] for k in z.files}
     except CorruptFile:
@@ -131,6 +190,11 @@ def read_checked(path: Path | str, required: tuple[str, ...] = (),
         raise CorruptFile(f"{', '.join(missing)} missing")
     if "digest" not in arrays or str(arrays["digest"]) != content_digest(arrays):
         raise CorruptFile("the digest does not match the content")
+    if key is not None:
+        expected = (_MAC_PREFIX + content_mac(arrays, key, context)).encode()
+        if not hmac.compare_digest(comment, expected):
+            raise CorruptFile("the signature does not match: changed, signed with another "
+                              "key, or stored under another request's name")
     return io.BytesIO(data)
 
 

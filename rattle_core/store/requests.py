@@ -16,7 +16,7 @@ from ..analysis.vocabulary import REGIME_CODES
 from ..batch.maps import _FLOAT_FIELDS, MapResult, _fields, _grid_args, basin_map, regime_map
 from ..batch.plan import BASIN_AXES, PHYSICAL_AXES, plan_map
 from ..batch.sweep import sweep
-from ..model.params import RattleParams, check_bool
+from ..model.params import RattleParams, check_bool, check_cancel, check_progress
 from .cache import cached_map, cached_sweep
 
 __all__ = ["run_map", "PHYSICAL_AXES"]
@@ -76,6 +76,9 @@ def run_map(params: RattleParams, phys: Any, x_name: str, x_values, y_name: str,
         units, ``physical``.
     """
     use_cache = check_bool("use_cache", use_cache)
+    for key, check in (("progress", check_progress), ("cancel", check_cancel)):
+        if key in common:
+            common[key] = check(common[key])
     plan = plan_map(params, phys, x_name, x_values, y_name, y_values, labels, follow)
     xv = _grid_args(x_name, x_values, "x_values")
     yv = _grid_args(y_name, y_values, "y_values")

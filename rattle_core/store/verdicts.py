@@ -1,11 +1,12 @@
 """Gearbox verdicts on disk: their ``.npz`` format and the cached run.
 
 :func:`cached_verdict` serves :func:`~rattle_core.batch.gearbox.verdict` from the disk cache
-(:func:`~rattle_core.store.cache.cached`, prefix ``gearbox``): the key covers the whole
-gearbox (every gear, the excitation's orders at every measured speed, the sound settings), the
-speeds, the run settings and the solver and verdict versions.  A file holds the table's columns
-and a JSON ``meta`` record, written atomically with its digest
-(:func:`~rattle_core.store.files.atomic_savez`).
+(:func:`~rattle_core.store.cache.cached`, prefix ``gearbox``, signed like every entry): the
+key covers the whole gearbox (every gear, the excitation's orders at every measured speed, the
+sound settings), the speeds, the run settings and the solver and verdict versions, and an entry
+is served only when its stored request is that whole request and its table holds every gear of
+this gearbox at every speed asked.  A file holds the table's columns and a JSON ``meta``
+record, written atomically with its digest (:func:`~rattle_core.store.files.atomic_savez`).
 """
 from __future__ import annotations
 
@@ -16,8 +17,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..batch.gearbox import (COLUMNS, ENSEMBLE_RUNS, VERDICT_VERSION, Verdict, check_rpm,
-                             record_periods, verdict)
+from ..batch.gearbox import (COLUMNS, ENSEMBLE_RUNS, GEARBOX, VERDICT_VERSION, Verdict,
+                             check_rpm, record_periods, verdict)
 from ..model.gearbox import Gearbox
 from ..solver.trajectory import SOLVER_VERSION
 from .cache import cached
@@ -77,8 +78,15 @@ def cached_verdict(gearbox: Gearbox, rpm: Any, *, transient: int = 200, record: 
                 "ensemble_runs": int(ensemble_runs)}
 
     def holds(res: Verdict) -> bool:
-        n = r.size * (len(gearbox.gears) + 1)
-        return np.array_equal(res.rpm, r) and len(res.table) == n
+        # the stored request is checked whole by the cache; the table must also be this
+        # gearbox's: every gear (and the gearbox rows) at every speed, under these settings
+        names = [g.name for g in gearbox.gears] + [GEARBOX]
+        t, speeds = res.table, np.sort(r)
+        return (np.array_equal(res.rpm, r) and len(t) == r.size * len(names)
+                and all(res.settings.get(k) == v for k, v in settings.items())
+                and sorted(t["gear"].astype(str)) == sorted(names * r.size)
+                and all(np.array_equal(np.sort(t.loc[t["gear"] == n, "rpm"].to_numpy(float)),
+                                       speeds) for n in names))
 
     limit = 64_000_000
     result, hit = cached("gearbox", verdict_request(gearbox, r, settings), compute, load_verdict,

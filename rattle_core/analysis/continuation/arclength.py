@@ -18,6 +18,9 @@ from .orbits import PeriodicOrbit
 from .results import _Run
 from .sticking import _handle, _signature, _stick_at
 
+#: Largest |period-doubling test| (which is in [−1, 1]) at a located multiplier −1.
+_PD_ZERO = 1e-6
+
 
 def _follow(run: _Run, br: _Branch, X, tau, ds, ds_min, ds_max, first_event: str = ""):
     """Pseudo-arclength continuation of an impact orbit from ``X`` along ``tau``."""
@@ -81,7 +84,9 @@ def _follow(run: _Run, br: _Branch, X, tau, ds, ds_min, ds_max, first_event: str
         located = []
         h_new = float(tau @ (X_new - X))
         for key in found:
-            fn = (lambda Y, k=key: _light(br, Y, vs)[k])
+            # grazing and sticking on the impacts' velocities and gaps, which exist there;
+            # the multiplier tests only where the monodromy is needed
+            fn = (lambda Y, k=key: _light(br, Y, vs, monodromy=k in ("pd", "ns"))[k])
             if key == "fold":
                 def fn(Y):
                     return br.tangent(Y[:-1], Y[-1], tau)[-1]
@@ -90,15 +95,17 @@ def _follow(run: _Run, br: _Branch, X, tau, ds, ds_min, ds_max, first_event: str
                 k = key[1]
 
                 def fn(Y, k=k):
-                    return _light(br, Y, vs)["speed"][k] - v_eff
+                    return _light(br, Y, vs, monodromy=False)["speed"][k] - v_eff
                 f0, f1 = tests["speed"][k] - v_eff, t_new["speed"][k] - v_eff
             else:
                 f0, f1 = tests[key], t_new[key]
             Xe, fe = _locate(br, X, tau, h_new, f0, f1, fn, tol)
             if Xe is None:
                 continue
+            if key == "pd" and not abs(fe) < _PD_ZERO:
+                continue  # the test jumped through the pole of a grazing impact, not through 0
             if isinstance(key, tuple):
-                if _light(br, Xe, vs)["react"][key[1]] <= 0.0:
+                if _light(br, Xe, vs, monodromy=False)["react"][key[1]] <= 0.0:
                     continue  # a pulling wall: the gear leaves at once, no sticking
                 key = "st"
             located.append((float(np.linalg.norm(Xe - X)), key, Xe))

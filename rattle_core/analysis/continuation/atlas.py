@@ -22,7 +22,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from ...model.params import RattleParams, check_range
+from ...model.params import RattleParams, check_cancel, check_progress, check_range
 from .bifcurve import _low_high, contact_bifurcation, continue_bifurcation
 from .driver import continue_orbit
 from .orbits import ContinuationError
@@ -79,6 +79,8 @@ def atlas(params: RattleParams, x_name: str, x_range: Sequence[float], y_name: s
     """
     if not isinstance(params, RattleParams):
         raise ValueError(f"params must be a RattleParams, got {type(params).__name__}")
+    progress = check_progress(progress)
+    cancel = check_cancel(cancel)
     rows = int(check_range("rows", rows, 1, 9))
     columns = int(check_range("columns", columns, 1, 9))
     max_curves = int(check_range("max_curves", max_curves, 1, 200))

@@ -9,10 +9,11 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from ...model.params import RattleParams, check_range
+from ...model.params import RattleParams, check_cancel, check_progress, check_range
 from ...solver.trajectory import SOLVER_VERSION
 from .codim2 import Codim2Point, _pd_direction, _reduced
 from .contact import _ContactSystem, _contact_side, _global_start, _polish_t
+from .curvepoint import _admissible, _orbit
 from .stickend import _stick_end_side
 from .defining import _Extended, _Grazing, _Multiplier, _StickOnset
 from .driver import CONTINUATION_VERSION
@@ -20,7 +21,7 @@ from .orbits import ContinuationError
 from .parameter import _KIND_J, _KIND_LAM, _KIND_R, _Param  # noqa: F401
 from .plane import _Plane
 from .results import Bifurcation
-from .twoparam import MAX_CURVE_POINTS, BifurcationCurve, _check_cancel, _finish, _trace
+from .twoparam import MAX_CURVE_POINTS, BifurcationCurve, _finish, _trace
 
 #: Bifurcation kinds that :func:`continue_bifurcation` follows in a second parameter.
 CURVE_STARTS = ("fold", "period_doubling", "grazing", "stick_onset", "stick_end",
@@ -86,9 +87,11 @@ def continue_bifurcation(bifurcation, param2: str | None = None, *,
         When the extended system cannot be solved at the start.
     """
     t_start = time.perf_counter()
-    _check_cancel(cancel)
-    if direction not in (0, 1, -1):
-        raise ValueError(f"direction = {direction!r}; allowed: 0 (both), 1 or -1")
+    progress = check_progress(progress)
+    cancel = check_cancel(cancel)
+    if (isinstance(direction, (bool, np.bool_)) or not isinstance(direction, (int, np.integer))
+            or direction not in (0, 1, -1)):
+        raise ValueError(f"direction = {direction!r}; allowed: the int 0 (both), 1 or -1")
     ds = check_range("ds", ds, 0.0, 1.0, lo_open=True)
     ds_max = check_range("ds_max", ds_max, ds, 10.0)
     ds_min = check_range("ds_min", ds_min, 0.0, ds, lo_open=True)
@@ -102,7 +105,9 @@ def continue_bifurcation(bifurcation, param2: str | None = None, *,
         ext, X0, how = bifurcation._restart
         plane = ext.plane
         kind = ext.cond.kind
-        X0 = _first_point(ext, X0, how, bifurcation)
+        X0 = _first_point(ext, X0, how, bifurcation,
+                          (_bounds_q(plane.spec1, bounds1, "bounds1"),
+                           _bounds_q(plane.spec2, bounds, "bounds")))
         start = {"codim2": bifurcation.kind, "value1": bifurcation.value1,
                  "value2": bifurcation.value2}
         v_stick = float(bifurcation.orbit.params.v_stick)
@@ -277,8 +282,8 @@ def _from_bifurcation(plane: _Plane, b: Bifurcation, q1: float, q2: float, v_sti
     return b.kind, ext, Xc
 
 
-def _first_point(ext, X0, how: str, point: Codim2Point):
-    """Solve the other curve's first point at a codimension-two point."""
+def _first_point(ext, X0, how: str, point: Codim2Point, bounds_q):
+    """Solve the other curve's first point at a codimension-two point, inside ``bounds_q``."""
     if how == "doubled":
         # the fold of the doubled orbits starts at zero amplitude; begin a little way along it
         e = _pd_direction(_Extended(ext.plane, ext.fl[:len(ext.fl) // 2], ext.n // 2, None),
@@ -292,23 +297,91 @@ def _first_point(ext, X0, how: str, point: Codim2Point):
                     return X
         raise ContinuationError(f"could not start the fold curve of the period-{ext.n} orbits "
                                 f"at {point.kind} ({point.param1} = {point.value1:.10g})")
-    X, _ = ext.correct(X0, None, maxit=40, fix=-1)
-    if X is None and how == "degenerate":
-        # the point itself is singular for the other curve: start just beside it
-        tau = ext.tangent(X0)
-        for h in (1e-6, 1e-5, 1e-4, 1e-3):
-            for sgn in (1.0, -1.0):
-                X, _ = ext.correct(X0 + sgn * h * tau, tau, maxit=30)
-                if X is not None:
-                    break
-            if X is not None:
-                break
+    X = None
+    if how == "degenerate":
+        X = _degenerate_start(ext, X0, bounds_q)
+    else:
+        X, _ = ext.correct(X0, None, maxit=40, fix=-1)
     if X is None:
         raise ContinuationError(f"could not start the {ext.cond.kind} curve at the "
                                 f"{point.kind} point ({point.param1} = {point.value1:.10g}, "
                                 f"{point.param2} = {point.value2:.10g})")
     ext.accept(X)
     return X
+
+
+#: Offsets (relative to 1 + |q|) at which :func:`_degenerate_start` holds one parameter.
+_START_OFFSETS = (0.0, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2)
+#: Farthest (relative to 1 + |q|) a degenerate start may lie from the point in each parameter.
+_START_RADIUS = 5e-2
+
+
+def _degenerate_start(ext, X0, bounds_q):
+    """The other curve's point nearest ``X0`` where its condition holds non-degenerately.
+
+    At a codimension-two point where a gap's minimum merges with a maximum (or a wall stops
+    pushing), the other curve's condition is singular, and ``X0`` (the orbit with an impact
+    removed or inserted) is only a guess.  Newton's method is started with one parameter held
+    at small offsets from ``X0`` each way, and a solution counts only if it lies within the
+    bounds, near ``X0``, and is a start of that curve: a true gap minimum (grazing) or a
+    pushing wall (onset of sticking), on an orbit of the model.  The one nearest ``X0`` in the
+    parameters wins.  None when there is none.
+    """
+    (a1, b1), (a2, b2) = bounds_q
+    q0 = X0[-2:]
+    radius = _START_RADIUS * (1.0 + np.abs(q0))
+    best, best_d = None, math.inf
+    s0 = getattr(ext.cond, "s", None)
+    for off in _START_OFFSETS:
+        for fix in (-1, -2):
+            for sgn in ((1.0,) if off == 0.0 else (1.0, -1.0)):
+                Xg = X0.copy()
+                Xg[fix] += sgn * off * (1.0 + abs(X0[fix]))
+                if s0 is not None:
+                    ext.cond.s = s0
+                _aim_touch(ext, Xg)
+                X, _ = ext.correct(Xg, None, maxit=40, fix=fix)
+                if X is None or not (a1 <= X[-2] <= b1 and a2 <= X[-1] <= b2):
+                    continue
+                d = np.abs(X[-2:] - q0)
+                if np.any(d > radius) or float(np.max(d / radius)) >= best_d:
+                    continue
+                if _nondegenerate(ext, X) and _admissible(ext, _orbit(ext, X)):
+                    best, best_d = X, float(np.max(d / radius))
+        if best is not None:
+            break
+    if best is not None:
+        _aim_touch(ext, best)
+    return best
+
+
+def _aim_touch(ext, X) -> None:
+    """Point a grazing condition at the interior gap minimum of its flight at ``X``, when the
+    flight has one on that wall: Newton's method on the gap's slope then starts at a minimum,
+    not at the inflection where a minimum and a maximum have merged."""
+    cond = ext.cond
+    if not isinstance(cond, _Grazing):
+        return
+    from .admissibility import _inspect
+    lam, r, j, h, phi = ext.plane.at(X[-2], X[-1])
+    m = len(ext.fl)
+    gmin, gs, contact = np.empty(m), np.empty(m), np.empty(m)
+    gw = np.empty(m, dtype=np.int64)
+    _inspect(X[:-2], ext.fl, ext.n, lam, r, j, h, phi, 0.0, False, gmin, gs, gw, contact)
+    if gw[cond.k] == cond.wall and np.isfinite(gs[cond.k]):
+        cond.s = float(gs[cond.k])
+
+
+def _nondegenerate(ext, X) -> bool:
+    """Whether the condition at ``X`` is the start of its curve: a grazing flight touches at a
+    minimum of its gap (positive curvature), an onset of sticking is on a pushing wall."""
+    z, q1, q2 = X[:-2], float(X[-2]), float(X[-1])
+    cond = ext.cond
+    if isinstance(cond, _Grazing):
+        return cond.curvature(ext, z, q1, q2) > 0.0
+    if isinstance(cond, _StickOnset):
+        return cond.reaction(ext, z, q1, q2) > 0.0
+    return True
 
 
 def _shift(m: int, n: int):

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from ...model.excitation import TWO_PI, excitation
+from .curvepoint import _admissible, _orbit, _where
 from .defining import _Extended, _Grazing, _Multiplier, _StickOnset, _monodromy
 from .orbits import PeriodicOrbit
 from .sticking import _w_min
@@ -125,13 +126,7 @@ def _codim2_tests(ext: _Extended, X, orb: PeriodicOrbit, tau) -> dict:
 
 
 def _test_at(ext: _Extended, key: str, X, tau) -> float:
-    try:
-        return _test_value(ext, key, X, tau)
-    except (ZeroDivisionError, FloatingPointError):
-        return math.nan
-
-
-def _test_value(ext: _Extended, key: str, X, tau) -> float:
+    """Test ``key`` at ``X``: finite, or NaN where it does not exist (an impact grazes)."""
     if key == "turn":
         return float(ext.tangent(X, tau)[-1])
     if key in ("pd", "fold"):
@@ -142,7 +137,6 @@ def _test_value(ext: _Extended, key: str, X, tau) -> float:
         return ext.cond.reaction(ext, X[:-2], X[-2], X[-1])
     if key == "gpd":
         return _criticality(ext, X)
-    from .twoparam import _admissible, _orbit
     orb = _orbit(ext, X)
     if key == "adm":
         return 1.0 if _admissible(ext, orb) else -1.0
@@ -205,7 +199,6 @@ _LABELS = {
 
 def _record(run, ext: _Extended, key: str, Xe, tau, side: int, idx: int):
     """Record the codimension-two point of test ``key`` at ``Xe`` (None if it is not one)."""
-    from .twoparam import _orbit, _where
     kind = ext.cond.kind
     if key == "turn":
         label, other, terminal = "turn", "", False
@@ -263,7 +256,6 @@ def _inserted(ext: _Extended, X, cond: _Grazing, v_stick: float):
 
 def _restart_data(ext: _Extended, key: str, Xe, v_stick: float):
     """``(extended system, first point, how)`` of the other curve at a codimension-two point."""
-    from .twoparam import _orbit
     kind = ext.cond.kind
     plane = ext.plane
     if key == "turn":
@@ -323,6 +315,8 @@ def _criticality(ext: _Extended, Xe) -> float:
     q2 = float(Xe[-1])
     _, X2 = _doubled(ext, Xe, None)
     e = _pd_direction(ext, Xe)[:-1]       # unknowns (z2, q1), q2 held
+    if not np.all(np.isfinite(e)):
+        return math.nan  # an impact grazes: the local maps, and the flip direction, do not exist
     fl2 = np.concatenate([ext.fl, ext.fl])
     Y0 = X2[:-1]
     dq = []

@@ -9,7 +9,8 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from ...model.params import RattleParams, check_int, check_range
+from ...model.params import (ArgumentTypeError, RattleParams, check_cancel, check_int,
+                             check_progress, check_range)
 from ...solver.trajectory import SOLVER_VERSION
 from .arclength import _follow
 from .orbits import PeriodicOrbit
@@ -45,12 +46,12 @@ def continue_orbit(start, param: str | None = None, *, bounds: Sequence[float] |
         from a simulation just beyond, a fold goes on through it.
     param : str
         ``lam``, ``r``, ``j``, ``hK`` (H_K/H1), ``phiK`` (degrees), or with ``physical``
-        ``rpm`` (engine speed) or ``drag_torque`` [N·m].  Default: the bifurcation's
-        parameter, else ``lam``.
+        ``rpm`` (engine speed) or ``drag_torque`` [N·m].  May be left out only when ``start``
+        is a bifurcation: its own parameter is then continued.
     bounds : (float, float), optional
         Stop when the parameter leaves this interval (its units).  Default: the model's range.
     direction : {1, -1}
-        Start towards increasing (1) or decreasing (−1) values.
+        Start towards increasing (1) or decreasing (−1) values; an int.
     ds, ds_min, ds_max : float
         First, smallest and largest arclength step, in the dimensionless unknowns (impact
         times, velocities and Λ, r, j, h_K, or φ_K in radians).
@@ -73,8 +74,20 @@ def continue_orbit(start, param: str | None = None, *, bounds: Sequence[float] |
     import pandas as pd
 
     t_start = time.perf_counter()
+    progress = check_progress(progress)
+    cancel = check_cancel(cancel)
     if param is None:
-        param = start.param if isinstance(start, Bifurcation) else "lam"
+        if not isinstance(start, Bifurcation):
+            raise ValueError("param = None: name the continued parameter (lam, r, j, hK, phiK, "
+                             "rpm or drag_torque); only a bifurcation's restart may leave it out")
+        param = start.param
+    elif not isinstance(param, str):
+        raise ArgumentTypeError(f"param = {param!r:.60} must be a parameter name (lam, r, j, hK, "
+                                "phiK, rpm or drag_torque)")
+    if (isinstance(direction, (bool, np.bool_)) or not isinstance(direction, (int, np.integer))
+            or direction not in (1, -1)):
+        raise ValueError(f"direction = {direction!r}; allowed: the int 1 (increasing) or -1 "
+                         "(decreasing)")
     if isinstance(start, Bifurcation):
         if param != start.param:
             raise ValueError(f"param = {param!r}, but the bifurcation was found in "
@@ -93,8 +106,6 @@ def continue_orbit(start, param: str | None = None, *, bounds: Sequence[float] |
     else:
         raise ValueError(f"start must be a PeriodicOrbit, a RattleParams or a Bifurcation, got "
                          f"{type(start).__name__}")
-    if isinstance(direction, (bool, np.bool_)) or direction not in (1, -1):
-        raise ValueError(f"direction = {direction!r}; allowed: 1 (increasing) or -1 (decreasing)")
     ds = check_range("ds", ds, 0.0, 1.0, lo_open=True)
     ds_max = check_range("ds_max", ds_max, ds, 10.0)
     ds_min = check_range("ds_min", ds_min, 0.0, ds, lo_open=True)

@@ -15,33 +15,55 @@ from .admissibility import ADMISSIBLE, _inspect
 from .branch import _Branch
 from .orbits import PeriodicOrbit
 from .results import _Run
-from .stability import _maps
+from .stability import _maps, _velocities
 from .sticking import _release_roots, _stick_margin, _w_min
 
 #: Bifurcations are located to this distance in the internal parameter.
 LOCATE_TOL = 1e-11
 
 
-def _light(br: _Branch, X, v_stick: float) -> dict:
-    """Test functions at X without the event search (for locating a sign change)."""
+def _light(br: _Branch, X, v_stick: float, monodromy: bool = True) -> dict:
+    """Test functions at X without the event search (for locating a sign change).
+
+    With ``monodromy`` False only the finite ones are computed: ``w``, ``speed``, ``react``
+    and ``gap``, none of which divides by an impact's velocity, so a grazing (``w = 0``) is
+    located on values that exist there.  The multiplier tests need the monodromy, which has
+    a factor ``1/w``: at a grazing impact they are NaN.
+    """
     lam, r, j, h, phi = br._at(X[-1])
     z = X[:-1]
     m = len(br.fl)
     w = np.empty(m)
-    M = np.empty((2, 2))
-    S = np.empty((2, 2))
-    _maps(z, br.fl, br.n, lam, r, j, h, phi, w, M, S)
+    if monodromy:
+        M = np.empty((2, 2))
+        S = np.empty((2, 2))
+        _maps(z, br.fl, br.n, lam, r, j, h, phi, w, M, S)
+    else:
+        _velocities(z, br.fl, br.n, lam, h, phi, w)
     gmin = np.empty(m)
     gs = np.empty(m)
     gw = np.empty(m, dtype=np.int64)
     contact = np.empty(m)
     _inspect(z, br.fl, br.n, lam, r, j, h, phi, v_stick, False, gmin, gs, gw, contact)
     tests = _slow_tests(z[0::2], br.fl, w, lam, h, phi, v_stick)
+    tests["gap"] = float(np.min(gmin))
+    if monodromy:
+        tests.update(_multiplier_tests(S))
+    return tests
+
+
+def _multiplier_tests(S) -> dict:
+    """Fold (``1 − tr + det``), period doubling (``1 + tr + det``) and Neimark–Sacker
+    (``det − 1``) tests of the monodromy ``S``; NaN when ``S`` is (an impact grazes).
+
+    The period-doubling test is divided by ``1 + |tr| + |det|``: it stays in [−1, 1] where
+    ``tr`` grows like ``1/w`` near a grazing impact, so a sign change through that pole
+    (where the test is ±1) is told from a multiplier at −1 (where it is 0).
+    """
     tr = S[0, 0] + S[1, 1]
     det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
-    tests.update(pd=1.0 + tr + det, ns=det - 1.0, fold=1.0 - tr + det, tr=tr,
-                 gap=float(np.min(gmin)))
-    return tests
+    return dict(pd=(1.0 + tr + det) / (1.0 + abs(tr) + abs(det)), ns=det - 1.0,
+                fold=1.0 - tr + det, tr=tr)
 
 
 def _slow_tests(t, fl, w, lam, h, phi, v_stick) -> dict:
@@ -55,12 +77,9 @@ def _slow_tests(t, fl, w, lam, h, phi, v_stick) -> dict:
 
 def _tests_of(orb: PeriodicOrbit, v_stick: float) -> dict:
     """The test functions of :func:`_light`, from an orbit already built."""
-    S = orb.monodromy
-    tr = S[0, 0] + S[1, 1]
-    det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
     p = orb.params
     tests = _slow_tests(orb.t, orb.flank, orb.w, p.lam, p.h, p.phi, v_stick)
-    tests.update(pd=1.0 + tr + det, ns=det - 1.0, fold=1.0 - tr + det, tr=tr, gap=orb.gap_min)
+    tests.update(_multiplier_tests(orb.monodromy), gap=orb.gap_min)
     return tests
 
 
@@ -78,7 +97,7 @@ def _locate(br: _Branch, X0, tau0, h_hi, f0, f1, fn, tol):
 
     Illinois regula falsi; each trial point is corrected onto the branch on the plane
     ``τ0 · (X − X0 − h τ0) = 0``.  Returns ``(X, f)`` at the end nearer the zero, or
-    ``(None, nan)`` if a correction fails.
+    ``(None, nan)`` if a correction fails or ``fn`` does not exist at a trial point.
     """
     lo, hi = 0.0, h_hi
     X_lo, X_hi = X0, None
@@ -95,6 +114,8 @@ def _locate(br: _Branch, X0, tau0, h_hi, f0, f1, fn, tol):
         if X is None:
             return None, math.nan
         f = fn(X)
+        if not math.isfinite(f):
+            return None, math.nan
         if abs(f) < abs(f_best) or X_best is X0:
             X_best, f_best = X, f
         if (f > 0) == (f0 > 0):

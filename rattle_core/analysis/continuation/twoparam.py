@@ -19,8 +19,9 @@ from typing import Any, Callable
 import numpy as np
 
 from .codim2 import _LABELS, Codim2Point, _codim2_tests, _locate_on_curve, _record
+from .curvepoint import _admissible, _orbit, _where
 from .defining import _Extended
-from .orbits import PeriodicOrbit, _impact_orbit
+from .orbits import PeriodicOrbit
 from .results import _limit
 from .sticking import _w_min
 
@@ -118,11 +119,6 @@ class BifurcationCurve:
                                            "point", "message"])
 
 
-def _orbit(ext: _Extended, X) -> PeriodicOrbit:
-    return _impact_orbit(ext.plane.params(X[-2], X[-1]), X[:-2].copy(), ext.fl, ext.n,
-                         check=ext.cond.kind != "grazing")
-
-
 class _CurveRun:
     """The points of one curve as they are found, in both directions from the start."""
 
@@ -143,29 +139,6 @@ class _CurveRun:
     def inside(self, X) -> bool:
         (a1, b1), (a2, b2) = self.bounds_q
         return a1 <= X[-2] <= b1 and a2 <= X[-1] <= b2
-
-
-def _admissible(ext: _Extended, orb: PeriodicOrbit) -> bool:
-    kind = ext.cond.kind
-    if kind not in ("grazing", "stick_onset"):
-        return orb.admissible
-    from .admissibility import ADMISSIBLE, _inspect
-    p = orb.params
-    m = orb.n_impacts
-    gmin, gs, contact = np.empty(m), np.empty(m), np.empty(m)
-    gw = np.empty(m, dtype=np.int64)
-    z = np.empty(2 * m)
-    z[0::2], z[1::2] = orb.t, orb.u
-    if kind == "stick_onset":
-        # its impact is at v_stick by definition: judge the rest with a smaller threshold
-        code = _inspect(z, ext.fl, ext.n, p.lam, p.r, p.j, p.h, p.phi, 0.5 * ext.cond.v_eff,
-                        True, gmin, gs, gw, contact)
-        return code == ADMISSIBLE
-    # the grazing flight touches its wall by definition; every other flight must stay clear
-    _inspect(z, ext.fl, ext.n, p.lam, p.r, p.j, p.h, p.phi, p.v_stick, False, gmin, gs, gw,
-             contact)
-    others = np.delete(gmin, ext.cond.k)
-    return bool(np.all(others > -1e-12)) and _w_min(orb) > 0.0
 
 
 def _side(run: _CurveRun, X, tau, ds, ds_min, ds_max):
@@ -275,11 +248,6 @@ def _land(run: _CurveRun, X, X_new):
     Xg[idx] = qb
     Xb, _ = ext.correct(Xg, None, maxit=30, fix=idx)
     return Xb
-
-
-def _where(ext: _Extended, X) -> str:
-    v1, v2 = ext.plane.value_of(X[-2], X[-1])
-    return f"{ext.plane.spec1.name} = {v1:.10g}, {ext.plane.spec2.name} = {v2:.10g}"
 
 
 def _trace(ext: _Extended, X0, direction: int, ds, ds_min, ds_max, bounds_q, max_points,
