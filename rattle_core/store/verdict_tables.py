@@ -39,6 +39,9 @@ UNITS = {"rpm": "rpm", "impacts_per_s": "1/s", "intensity": "N²·s", "loudness_
          "target_dba": "dB(A)", "margin_dba": "dB(A)", "share": "1", "drag_Nm": "N·m",
          "drag_to_quiet_Nm": "N·m", "inertia_to_quiet_kgm2": "kg·m²", "oil_temp_C": "°C",
          "rattle_ranges": "rpm"}
+#: What the text columns hold, in place of a unit.
+TEXT_UNITS = {"gear": "name", "regime": "A–E, P, Q", "interval": "how", "pass": "true/false",
+              "design": "name", "attractors": "count"}
 #: Columns compared between two designs (those a verdict has).
 COMPARED = ("onset_rpm", "loudness_sone", "spl_dba", "spl_dba_max", "margin_sone", "margin_dba",
             "impacts_per_s", "intensity")
@@ -214,8 +217,10 @@ def compare_lines(a: Any, b: Any, names: tuple[str, str], target: Target | None 
 
 
 def with_units(table: "pd.DataFrame") -> "pd.DataFrame":
-    """``table`` with each header carrying its unit, ``loudness_sone [sone]``."""
-    return table.rename(columns={c: f"{c} [{UNITS[c]}]" for c in table.columns if c in UNITS})
+    """``table`` with each header carrying its unit (``loudness_sone [sone]``) or, for text,
+    what it holds (``regime [A–E, P, Q]``); a column of no known kind is marked ``[1]``."""
+    known = {**UNITS, **TEXT_UNITS}
+    return table.rename(columns={c: f"{c} [{known.get(c, '1')}]" for c in table.columns})
 
 
 __all__ = ["frame", "with_target", "ranges", "failing", "summaries", "gear_lines",
