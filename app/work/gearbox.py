@@ -31,8 +31,11 @@ MAX_TOML_BYTES = 1_000_000
 LISTEN_SECONDS = 2.0
 
 
-def measurement(data: bytes | None, orders: tuple, rpm_step: float) -> Any:
-    """The order map of uploaded bytes (``None``: the shipped synthetic run-up)."""
+def measurement(data: bytes | None, orders: tuple, rpm_step: float, name: str | None = None) -> Any:
+    """The order map of uploaded bytes (``None``: the shipped synthetic run-up); with ``name``
+    (the file's name, shown only escaped), the pair ``(map, {"file", "sha256", "bytes"})``."""
+    if name is not None:
+        return measurement(data, orders, rpm_step), {"file": str(name)[:200], **file_identity(data)}
     from ..core import SAMPLE_RUNUP, OrderMap
     if data is None:
         return OrderMap.from_csv(SAMPLE_RUNUP, orders, rpm_step, label="the sample run-up (synthetic)")
