@@ -106,3 +106,31 @@ def test_bad_options_exit_2_with_one_line(files, capsys, extra, words):
     for w in words:
         assert w in err, (w, err)
     assert not (files / "v.csv").exists()
+
+
+def test_oil_temps_write_the_rpm_temperature_map(files, capsys, monkeypatch):
+    """``--oil-temps A:B:N`` runs the design at N temperatures: the CSV holds every row once per
+    temperature with its ``oil_temp_C``, and the PNG map is written.  (The gearbox here takes
+    the temperature through a stand-in whose drag halves from cold to hot, so each temperature
+    is a different verdict.)"""
+    original = Gearbox.replace
+
+    def replace(self, **changes):
+        t = changes.pop("oil_temp_C", None)
+        box = original(self, **changes)
+        if t is not None:
+            box = original(box, gears=tuple(g.replace(drag_torque_Nm=g.drag_torque_Nm * (1 - t / 200))
+                                             for g in box.gears))
+        return box
+    monkeypatch.setattr(Gearbox, "replace", replace)
+    out = files / "t.csv"
+    code = main(["gearbox", str(files / "a.toml"), "--rpm", "1000:3000:3", "--oil-temps=-20:100:3",
+                 "--out", str(out), "--png", *FAST])
+    assert code == 0, capsys.readouterr().err
+    df = pd.read_csv(out)
+    assert df.columns[0] == "oil_temp_C" and sorted(set(df["oil_temp_C"])) == [-20.0, 40.0, 100.0]
+    assert len(df) == 3 * 3 * 3
+    hot = df[(df["oil_temp_C"] == 100.0) & (df["gear"] == "5th idler")]["onset_rpm"].iloc[0]
+    cold = df[(df["oil_temp_C"] == -20.0) & (df["gear"] == "5th idler")]["onset_rpm"].iloc[0]
+    assert math.isnan(cold) or hot <= cold  # less drag when hot: it leaves contact no later
+    assert (files / "t.png").stat().st_size > 1000
