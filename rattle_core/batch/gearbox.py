@@ -157,7 +157,7 @@ class Verdict:
     def drag_for_target(self, gear: str, **kw: Any) -> float:
         """The drag [N·m] to add to ``gear`` so that it meets the target at every speed, by
         bisection on verdicts of that gear (:mod:`rattle_core.batch.verdict_actions`)."""
-        return _actions.drag_for_target(self, gear, **kw)
+        return _actions.drag_for_target(self, gear, verdict, **kw)
 
     @property
     def summaries(self) -> dict[str, str]:

@@ -150,12 +150,12 @@ def added_drag(gear, delta_Nm: float):
     return gear.replace(drag=dataclasses.replace(d, torque_Nm=rows))
 
 
-def drag_for_target(result, name: str, tol_Nm: float | None = None,
+def drag_for_target(result, name: str, run, tol_Nm: float | None = None,
                     max_steps: int = 12) -> float:
     """The drag [N·m] to add to gear ``name`` so that it meets the verdict's target at every
-    speed (module docstring); 0 when it does already.  ``tol_Nm`` is the bracket's final width
-    (default 1 % of the boundary's drag to add)."""
-    from .gearbox import verdict
+    speed (module docstring); 0 when it does already.  ``run`` is the verdict function that
+    made ``result`` (passed in, since the verdict's module imports this one); ``tol_Nm`` is the
+    bracket's final width (default 1 % of the boundary's drag to add)."""
     box = result.gearbox
     if box.target is None:
         raise ValueError("drag_for_target needs a target: give the gearbox a [target] or "
@@ -177,7 +177,7 @@ def drag_for_target(result, name: str, tol_Nm: float | None = None,
 
     def passes(delta: float) -> bool:
         one = box.replace(gears=(added_drag(box.gears[g], delta),))
-        res = verdict(one, rpm, transient=st["transient"], record=st["record"],
+        res = run(one, rpm, transient=st["transient"], record=st["record"],
                       ensemble_runs=st["ensemble_runs"])
         return bool(res.gear(name)["pass"].all())
     lo = 0.0
