@@ -128,7 +128,7 @@ def main() -> None:
         print(f"  {threads} thread(s): wall {w:7.3f} s  CPU {c:7.3f} s  ({res.pressure_pa.size} "
               f"samples, N max {res.loudness_t.max():.1f} sone); CPU / replays alone "
               f"{c / tot_c:.2f}")
-    print(f"  target for a 30 s run-up: <= 10 CPU-s, sound and loudness included")
+    print("  target for a 30 s run-up: <= 10 CPU-s, sound and loudness included")
 
 
 if __name__ == "__main__":

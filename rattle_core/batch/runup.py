@@ -168,9 +168,7 @@ def rattle_intervals(t_s: np.ndarray, rpm: np.ndarray, engine_order: float,
 def _gear_task(gearbox: Gearbox, gi: int, rpm_from: float, rpm_to: float, duration_s: float,
                sound: bool):
     """One gear: its replay; with ``sound``, its pressure [Pa], band levels and own N(t)."""
-    drag = None if gearbox.gears[gi].drag_torque_Nm is not None else (
-        lambda rpm: gearbox.drag_Nm(gi, rpm))
-    rr = replay(gearbox, gi, rpm_from, rpm_to, duration_s, drag=drag)
+    rr = replay(gearbox, gi, rpm_from, rpm_to, duration_s)
     if not sound:
         return rr, None, None, None
     p = gearbox.transfer_pa_per_ns * render(rr.impact_t, rr.impact_impulse, duration_s,
