@@ -18,7 +18,6 @@ from rattle_core.batch.runup import (GAP_PERIODS, compare, gearbox_runup, rattle
                                      verdict_grid)
 from rattle_core.model.drag import Drag
 from rattle_core.model.gearbox import Excitation, Gear, Gearbox
-from rattle_core.model.orders import SAMPLE_RUNUP, OrderMap
 from rattle_core.solver.runup import replay
 
 GEARS = (Gear("5th idler", 4e-4, 0.035, 0.05, 80.0, 0.65),
@@ -49,7 +48,9 @@ speed_ratio = 0.8
 
 @pytest.fixture(scope="module")
 def sample_box():
-    omap = OrderMap.from_csv(SAMPLE_RUNUP, orders=(2, 4, 6), rpm_step=100)
+    # the shipped sample run-up's order map, as a gearbox file reads it
+    omap = Gearbox.from_text(CLI_TOML).excitation.order_map
+    assert list(omap.orders[:3]) == [2.0, 4.0, 6.0]
     return Gearbox(Excitation(2.0, 3, omap), GEARS)
 
 
