@@ -313,13 +313,18 @@ def compare(run: GearboxRunup, verdict: Verdict, rundown: GearboxRunup | None = 
     import pandas as pd
     if run.time_s is None:
         raise ValueError("run must be measured with its sound (gearbox_runup(..., sound=True))")
+    names = [g.name for g in run.gearbox.gears]
+    if [g.name for g in verdict.gearbox.gears] != names:
+        raise ValueError(f"verdict is of the gears {[g.name for g in verdict.gearbox.gears]}, "
+                         f"the run of {names}; compare the same gearbox")
+    if rundown is not None and list(rundown.replays) != names:
+        raise ValueError(f"rundown is of the gears {list(rundown.replays)}, the run of {names}")
     grid = np.asarray(verdict.rpm, dtype=np.float64)
     step = float(np.median(np.diff(grid))) if grid.size > 1 else GRID_STEP_RPM
     v_onsets = verdict.onsets
     r_onsets = run.onsets
     d_onsets = rundown.onsets if rundown is not None else {}
     rows, lrows, lines = [], [], []
-    names = [g.name for g in run.gearbox.gears]
     for name in names + [GEARBOX]:
         rows_v = verdict.gear(name)
         v_n = np.interp(grid, rows_v["rpm"].to_numpy(), rows_v["loudness_sone"].to_numpy())
