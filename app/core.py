@@ -50,6 +50,11 @@ from rattle_core.model.gearbox import (DEFAULT_DURATION_S, DEFAULT_TRANSFER_PA_P
 from rattle_core.measure.orders import SAMPLE_RUNUP, OrderMap
 from rattle_core.paper.drawing import orders_png, verdict_png
 from rattle_core.store.verdicts import cached_verdict
+from rattle_core.model.target import Target
+from rattle_core.paper.verdict_pictures import designs_png
+from rattle_core.store import verdict_tables
+from rattle_core.store.exports import csv_text
+from rattle_core.analysis.vocabulary import REGIMES as REGIME_WORDS
 
 #: Regime letter → meaning, for the letters a classification gives.
 REGIMES = {k: v for k, v in REGIME_MEANING.items() if k != "error"}
@@ -76,4 +81,5 @@ __all__ = [
     "LOUDNESS_RATE", "loudness", "render", "normalize", "GEARBOX", "DEFAULT_DURATION_S",
     "DEFAULT_TRANSFER_PA_PER_NS", "Excitation", "Gear", "Gearbox", "SAMPLE_RUNUP", "OrderMap",
     "orders_png", "verdict_png", "cached_verdict", "check_verdict_rpm",
+    "Target", "designs_png", "verdict_tables", "csv_text", "REGIME_WORDS",
 ]

@@ -94,6 +94,13 @@ class Shell:
                                 f'24px 12px; font-size: 18px; color: #a00;">{escape(text)}</div>')
 
 
+def _built(view: type, **kwargs: Any) -> Any:
+    """One view, built holding :data:`HV_LOCK` (its HoloViews streams) and letting go after,
+    so that another session's redraw waits for one view of this page, not for all of them."""
+    with HV_LOCK:
+        return view(**kwargs)
+
+
 class Dashboard:
     """Everything one browser session sees (build it with :func:`app.main.create_app`).
 
@@ -106,8 +113,7 @@ class Dashboard:
                  shell: Shell | None = None, alive: Any = None):
         self.shell = shell if shell is not None else Shell()
         self._alive = alive or (lambda: True)
-        with HV_LOCK:  # the views build HoloViews streams
-            self._build(location, doc, pool)
+        self._build(location, doc, pool)
         LIVE.add(self)
 
     def _check_alive(self) -> None:
@@ -122,23 +128,30 @@ class Dashboard:
         self._check_alive()  # the first run is done: the views and their plots come next
         s = self.state = self.session.state
         jobs = self.session.jobs
-        self.controls = Controls(state=s)
-        self.units = UnitsView(state=s)
-        self.regime = RegimeView(state=s)
-        self.pin = PinView(state=s)
-        self.noise = NoiseView(state=s, jobs=jobs)
-        self.time_history = TimeHistoryView(state=s)
-        self.section = SectionView(state=s)
-        self.motion = MotionView(state=s)
-        self.diagram = DiagramView(state=s, jobs=jobs)
-        self.continuation = ContinuationView(state=s, jobs=jobs)
-        self.sound = SoundView(state=s)
-        self.sensitivity = SensitivityView(state=s)
-        self.curve = CurveView(state=s, jobs=jobs)
-        self.maps = MapsView(state=s, jobs=jobs, settings=self.session.map_settings)
-        self.atlas = AtlasView(state=s, jobs=jobs, maps=self.maps)
-        self.gearbox = GearboxView(state=s, jobs=jobs, settings=self.session.gearbox_settings)
-        self.present = PresentView(state=s, header=self.shell.header)
+        self.controls = _built(Controls, state=s)
+        self.units = _built(UnitsView, state=s)
+        self.regime = _built(RegimeView, state=s)
+        self.pin = _built(PinView, state=s)
+        self.noise = _built(NoiseView, state=s, jobs=jobs)
+        self.time_history = _built(TimeHistoryView, state=s)
+        self.section = _built(SectionView, state=s)
+        self.motion = _built(MotionView, state=s)
+        self.diagram = _built(DiagramView, state=s, jobs=jobs)
+        self.continuation = _built(ContinuationView, state=s, jobs=jobs)
+        self.sound = _built(SoundView, state=s)
+        self.sensitivity = _built(SensitivityView, state=s)
+        self.curve = _built(CurveView, state=s, jobs=jobs)
+        self.maps = _built(MapsView, state=s, jobs=jobs, settings=self.session.map_settings)
+        self.atlas = _built(AtlasView, state=s, jobs=jobs, maps=self.maps)
+        self.gearbox = _built(GearboxView, state=s, jobs=jobs, settings=self.session.gearbox_settings)
+        self.present = _built(PresentView, state=s, header=self.shell.header)
+        with HV_LOCK:  # the views' panels may build HoloViews panes
+            maps_tab = self._arrange()
+        # each plot's models are built under the lock, one plot at a time (HoloViewsPane)
+        self._lay_out(maps_tab)
+
+    def _arrange(self) -> Any:
+        """The views in their rows and columns; returns the Maps tab's column."""
         self.views = [self.controls, self.units, self.regime, self.pin, self.noise,
                       self.time_history, self.section, self.motion,
                       self.diagram, self.continuation, self.curve, self.sound, self.maps,
@@ -161,7 +174,11 @@ class Dashboard:
         self.explorer = pn.Column(
             self.regime, pin, noise, th_cell, table, motion, section_row, sensitivity, sound,
             sizing_mode="stretch_width", css_classes=["explorer"], stylesheets=[EXPLORER_CSS])
-        maps_tab = pn.Column(self.maps, self.atlas, sizing_mode="stretch_width")
+        return pn.Column(self.maps, self.atlas, sizing_mode="stretch_width")
+
+    def _lay_out(self, maps_tab: Any) -> None:
+        """The arranged views put in the page already sent (every view's models are built)."""
+        s = self.state
         self._check_alive()  # what follows puts every view's models in the page
         shell = self.shell
         self.tabs = shell.tabs
@@ -172,7 +189,8 @@ class Dashboard:
         self.tabs.param.watch(self._on_tab, "active")
         s.param.watch(self._on_state_tab, "tab")
         if s.tab == "maps":
-            self.maps.open_link()
+            with HV_LOCK:
+                self.maps.open_link()
         self.layout = shell.layout
         shell.sidebar[:] = [self.controls, self.units]
         shell.notes[:] = [message(s, "url"), message(s, "tab"), message(s, "global")]

@@ -14,7 +14,8 @@ Also a Panel script: ``panel serve app/main.py`` builds one dashboard per sessio
   not at all for a client that has gone: a request nobody reads (a readiness poll that gave
   up) costs a frame, not a dashboard.
 * A closed session is freed: its jobs are cancelled and its dashboard dropped
-  (``pn.state.on_session_destroyed``), and unused sessions are reaped within seconds.
+  (``pn.state.on_session_destroyed``), and unused sessions are reaped within seconds; no
+  timer of the server holds a copy of a session's context (:func:`_start_panel_timers`).
 * Bokeh recomputes the set of a document's models at the end of every batch of changes,
   whether or not the batch changed which models exist. HoloViews wraps each plot update in
   such a batch, so on a full page every redraw paid for a walk of every model (about 25 ms).
@@ -25,6 +26,7 @@ Also a Panel script: ``panel serve app/main.py`` builds one dashboard per sessio
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import logging
 import os
 import signal
@@ -244,6 +246,30 @@ def _sigint_ignored() -> Iterator[None]:
         signal.signal(signal.SIGINT, old)
 
 
+def _start_panel_timers(server) -> None:
+    """Start Panel's process-wide periodic callback (its busy indicator's clean-up) on the
+    server's loop, from an empty context.
+
+    Panel starts it in the first session that reports activity; its asyncio task keeps a copy
+    of the context it was created in, where Panel's current document is that session's, so
+    the task held that session's document (and so its models) for the life of the server.
+    Started here, its context holds no session.
+    """
+    loop = getattr(server, "asyncio_loop", None)
+    schedule = getattr(pn.state, "_schedule_busy_cleanup", None)
+    if loop is None or schedule is None:
+        return
+    started = threading.Event()
+
+    def start() -> None:
+        try:
+            schedule()
+        finally:
+            started.set()
+    loop.call_soon_threadsafe(start, context=contextvars.Context())
+    started.wait(10)
+
+
 def _stop(server) -> None:
     try:
         server.stop()
@@ -297,6 +323,7 @@ def serve(port: int = 5006, address: str = "localhost", show: bool = False,
                 if time.monotonic() > deadline:
                     raise RuntimeError(f"the dashboard did not start answering on port {port}")
                 time.sleep(0.05)
+            _start_panel_timers(server)
             if not quiet:
                 print(f"serving Rattle Explorer on http://{address}:{port}/ (Ctrl+C stops)",
                       flush=True)

@@ -93,6 +93,22 @@ class OptionalNumber(param.Number):
         return None if value in (None, "", "null") else value
 
 
+class TargetText(param.String):
+    """A rattle target in the CLI's text form (``"1000:10,3000:20 sone; 1000:60,3000:70 dba"``),
+    or empty; a text that does not read as one is refused with the reason."""
+
+    MAX_CHARS = 4000
+
+    def _validate_value(self, value, allow_None):
+        super()._validate_value(value, allow_None)
+        if value:
+            if len(value) > self.MAX_CHARS:
+                raise ValueError(f"the target has {len(value)} characters; the allowed length is "
+                                 f"up to {self.MAX_CHARS}")
+            from .core import Target
+            Target.parse(value)
+
+
 class Flag(param.Boolean):
     """A switch the URL may also give as 1/0, on/off or yes/no."""
 
@@ -281,8 +297,12 @@ class GearboxSettings(Said):
     transfer = param.Number(5.0, bounds=(1e-3, 1e4), label="Pa per N·s")
     transient = param.Integer(200, bounds=(10, 5000), label="transient periods")
     record = param.Integer(100, bounds=(10, 5000), label="recorded periods")
-    variant = param.Selector(default="none", objects=["none", "drag", "backlash"],
+    variant = param.Selector(default="none", objects=["none", "drag", "backlash", "design"],
                              label="what-if variant")
+    target = TargetText("", label="target",
+                        doc="limit curves 'RPM:VALUE,... sone; RPM:VALUE,... dba' (empty: the file's)")
+    oil_temp = OptionalNumber(None, allow_None=True, bounds=(-40.0, 150.0),
+                              label="oil temperature [°C]")
     drag_pct = param.Number(20.0, bounds=(-90.0, 500.0), label="drag change [%]")
     backlash_change_um = param.Number(-10.0, bounds=(-1000.0, 1000.0), label="backlash change [µm]")
     listen_rpm = param.Number(2000.0, bounds=(1.0, 1e5), label="listen at [rpm]")

@@ -6,8 +6,9 @@ takes: the run, every view, the PATCH-DOC message).  Its redraw times are measur
 (the baseline, in the same run) and then while another user keeps opening pages, one after
 the other, on
 
-* a plain link (the cost of someone opening a page at all: building its widgets and plots
-  holds the HoloViews lock, as every redraw does);
+* a plain link (the cost of someone opening a page at all: each of its views and plots is
+  built holding the HoloViews lock, as every redraw does, and the lock goes to a waiting
+  redraw between them);
 * the audit's worst link (32 harmonics of amplitude 100 in a backlash of 0.01, 300 periods,
   and the same with ``transient=100000``): before the page's run had a budget, each of these
   simulated for minutes holding the lock every redraw needs (115 s for another session's
@@ -15,9 +16,11 @@ the other, on
 * a heavy link within the budget (10 harmonics, 20000 + 100000 periods), which runs in a
   worker process.
 
-Prints p50/p95/max of B's redraws in each case, the ratio to idle and to the plain link, and
-how long each page took to answer.  Target: B's p95 under 1 s while the worst link runs; on
-a loaded machine, read it against the plain link's figure.
+Prints p50/p95/max of B's redraws in each case (wall time, and the CPU time of B's thread
+beside it: wall well above CPU is time spent waiting, for the lock or for a core), the ratio
+to idle and to the plain link, and how long each page took to answer.  Target: B's p95
+under 1 s while the worst link runs; on a loaded machine, read it against the plain link's
+figure.
 
     .venv/bin/python benchmarks/bench_isolation.py [--redraws 30]
 """
@@ -42,27 +45,31 @@ HEAVY = ("?harmonics=" + ",".join(f"{k}:0.01:0" for k in range(3, 11))
          + "&periods=20000&transient=100000")
 
 
-def redraws(dash, values) -> list[float]:
-    """Seconds of each redraw of ``dash`` to the Λ values given (full update + PATCH-DOC)."""
+def redraws(dash, values, cpu: list[float] | None = None) -> list[float]:
+    """Seconds of each redraw of ``dash`` to the Λ values given (full update + PATCH-DOC);
+    ``cpu`` receives the CPU seconds of this thread for each."""
     from bokeh.protocol import Protocol
 
     proto, events, out = Protocol(), [], []
+    cpu = [] if cpu is None else cpu
     doc = dash._bench_doc
     doc.on_change(events.append)
     box = dash.controls.fields["lam"].box
     for v in values:
         events.clear()
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.thread_time()
         box.value = float(v)
         proto.create("PATCH-DOC", list(events))
         out.append(time.perf_counter() - t)
+        cpu.append(time.thread_time() - c)
     doc.remove_on_change(events.append)
     return out
 
 
-def summary(s: list[float]) -> str:
-    q = np.percentile(s, [50, 95])
-    return f"p50 {q[0]:7.3f} s   p95 {q[1]:7.3f} s   max {max(s):7.3f} s"
+def summary(s: list[float], cpu: list[float]) -> str:
+    q, c = np.percentile(s, [50, 95]), np.percentile(cpu, [50, 95])
+    return (f"p50 {q[0]:7.3f} s   p95 {q[1]:7.3f} s   max {max(s):7.3f} s   "
+            f"(CPU p50 {c[0]:.3f} s, p95 {c[1]:.3f} s)")
 
 
 def main() -> int:
@@ -91,8 +98,9 @@ def main() -> int:
     b = page()
     values = np.linspace(3.2, 3.4, args.redraws + 1)
     redraws(b, values[:1])  # the first redraw compiles what is left
-    idle = redraws(b, values[1:])
-    print(f"session B idle, {args.redraws} redraws:           {summary(idle)}")
+    idle_cpu: list[float] = []
+    idle = redraws(b, values[1:], idle_cpu)
+    print(f"session B idle, {args.redraws} redraws:           {summary(idle, idle_cpu)}")
     worst_p95 = 0.0
     try:
         plain_p95 = math.nan
@@ -116,7 +124,8 @@ def main() -> int:
             other = threading.Thread(target=hostile, daemon=True)
             other.start()
             time.sleep(1.0)
-            loaded = redraws(b, values[::-1][1:])
+            loaded_cpu: list[float] = []
+            loaded = redraws(b, values[::-1][1:], loaded_cpu)
             stop.set()
             other.join(300)
             p95 = float(np.percentile(loaded, 95))
@@ -124,7 +133,7 @@ def main() -> int:
             if math.isnan(plain_p95):
                 plain_p95 = p95
             print(f"\nsession B while another user opens {title}:")
-            print(f"  {summary(loaded)}   p95 / idle p95 = {ratio:.1f}×   "
+            print(f"  {summary(loaded, loaded_cpu)}   p95 / idle p95 = {ratio:.1f}×   "
                   f"p95 / plain-link p95 = {p95 / plain_p95:.2f}×")
             for link, secs, note in built[:3]:
                 print(f"  page {link}… answered in {secs:.2f} s{': ' + note if note else ''}")

@@ -31,6 +31,7 @@ def test_sample_verdict_variant_and_exports(view):
     df.loc[0, "name"] = "<script>alert(1)</script>"
     view.table.value = df
     view.settings.param.update(variant="drag", drag_pct=50.0)
+    assert view.set_target("1000:0.1,3000:0.1 sone")
     assert view.run()
     wait_for(lambda: view.revision == 1, 300, "the verdict")  # set last, after the results
     assert view.base is not None and view.variant is not None
@@ -38,8 +39,19 @@ def test_sample_verdict_variant_and_exports(view):
         later = view.variant.onsets[name]
         assert not (later < onset), (name, onset, later)  # more drag: contact holds longer
     csv = pd.read_csv(view.csv())
-    assert set(csv["case"]) == {"baseline", "drag torque +50 %"}
-    assert len(csv) == 2 * 5 * 4
+    assert set(csv["design"]) == {"baseline", "drag torque +50 %", "B - A"}
+    assert len(csv) == 3 * 5 * 4
+    a = csv[csv["design"] == "baseline"]
+    assert (a["margin_sone"] - (0.1 - a["loudness_sone"])).abs().max() < 1e-9
+    side = view.side_by_side_frame()
+    assert list(side["design"]).count("A") == list(side["design"]).count("B") == 4
+    assert set(side["pass"]) <= {"pass", "fail"} and "&lt;script&gt;" in view.side_by_side.object
+    from app.ui.gearbox_plots import metric_plot
+    import holoviews as hv
+    plot = metric_plot(view.base, view.variant, "loudness_sone", "loudness", target=view.target)
+    labels = [el.label for el in plot]
+    assert "target" in labels and ("fail" not in set(a["pass"].astype(str)) or any(
+        isinstance(el, hv.VSpan) for el in plot))
     html = view.report
     assert html.startswith("<!DOCTYPE html>") and html.count("data:image/png;base64,") >= 3
     assert "<script>alert(1)</script>" not in html and "&lt;script&gt;alert(1)&lt;/script&gt;" in html
@@ -100,3 +112,22 @@ def test_cancel_drops_the_running_verdict(view):
     assert view.run()
     wait_for(lambda: view.revision == 1, 300, "the second verdict")
     assert view.base.rpm.size == 3
+
+
+def test_target_text_and_oil_temperature_are_checked(view):
+    """A target that does not read is refused with its reason as plain text, the last good one
+    kept; a good one is taken; an oil temperature outside −40…150 °C is refused with the range;
+    design B starts as a copy of the gears."""
+    assert view.set_target("1000:10,3000:20 sone; 1000:60,3000:70 dba")
+    assert view.settings.target == "1000:10,3000:20 sone; 1000:60,3000:70 dba"
+    assert not view.set_target("1000:10,<b>3000</b> sone")
+    msg = view.settings.messages["target"]
+    assert "is not RPM:VALUE" in msg and "Kept 1000:10,3000:20 sone; 1000:60,3000:70 dba" in msg
+    assert view.settings.target == "1000:10,3000:20 sone; 1000:60,3000:70 dba"
+    from app.ui.widgets import set_value
+    assert not set_value(view.settings, "oil_temp", 151.0)
+    assert "[-40, 150]" in view.settings.messages["oil_temp"]
+    assert set_value(view.settings, "oil_temp", -40.0)
+    view.copy_design()
+    assert view.settings.variant == "design"
+    assert view.table_b.value.equals(view.table.value)

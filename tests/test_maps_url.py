@@ -156,3 +156,16 @@ def test_every_gearbox_setting_is_a_url_key():
     assert all(k == f"gb_{n}" for n, k in GEARBOX_URL_KEYS.items())
     keys = [*URL_KEYS.values(), *MAP_URL_KEYS.values(), *GEARBOX_URL_KEYS.values()]
     assert len(keys) == len(set(keys))
+
+
+def test_a_link_carries_the_gearbox_target_and_oil_temperature(linked):
+    """gb_target and gb_oil_temp reopen the tab's target and temperature; a target that does not
+    read and a temperature outside −40…150 °C are refused with their reasons, and the URL is
+    put back to the kept values."""
+    d, loc = linked("?tab=gearbox&gb_target=1000%3A10%2C3000%3A20%20sone&gb_oil_temp=-20")
+    g = d.gearbox.settings
+    assert (g.target, g.oil_temp) == ("1000:10,3000:20 sone", -20.0)
+    d, loc = linked("?tab=gearbox&gb_target=1000%3A10%2C3000%20sone&gb_oil_temp=200")
+    g = d.gearbox.settings
+    assert g.target == "" and g.oil_temp is None
+    assert "is not RPM:VALUE" in g.messages["target"] and "[-40, 150]" in g.messages["oil_temp"]

@@ -24,7 +24,7 @@ REGIME_POINTS = """() => {
 
 def test_gearbox_tab_from_sample_to_verdict(page, dashboard_server, tmp_path, monkeypatch):
     """Sample → orders; 4 speeds with a drag +50 % variant → onsets in the status, the regime
-    plot's 24 points and a CSV of 2 × 4 × 4 rows; a CSV with time going back → the message names the line; Listen → audio."""
+    plot's 24 points and a CSV of 3 × 4 × 4 rows (both designs and B - A); a CSV with time going back → the message names the line; Listen → audio."""
     monkeypatch.setenv("RATTLE_CACHE_DIR", str(tmp_path / "cache"))
     errors = open_dashboard(page, dashboard_server)
     page.locator(".bk-tab", has_text="Gearbox").first.click()
@@ -43,8 +43,8 @@ def test_gearbox_tab_from_sample_to_verdict(page, dashboard_server, tmp_path, mo
     with page.expect_download(timeout=120_000) as dl:
         page.locator(".gb-csv button").first.click()
     text = open(dl.value.path(), encoding="utf-8").read().splitlines()
-    assert text[0].startswith("gear,rpm,regime,impacts_per_s,intensity,loudness_sone")
-    assert len(text) == 1 + 2 * 4 * 4
+    assert text[0].startswith("design,gear,rpm,regime,impacts_per_s,intensity,loudness_sone")
+    assert len(text) == 1 + 3 * 4 * 4
     bad = tmp_path / "bad.csv"
     bad.write_text("time_s,speed_rpm\n0,1000\n0.001,1000\n0.0005,1000\n" + "0.1,1000\n" * 50)
     page.locator(".gb-measurement input[type=file]").first.set_input_files(str(bad))

@@ -14,6 +14,10 @@ from rattle_core.analysis.vocabulary import CLASS_LETTERS
 
 from test_ui import DEEP, open_dashboard, painted
 
+#: A short run: these tests are about the page's layout, which the run's length does not
+#: change, and a short run builds the page faster.
+SHORT = "&periods=20&transient=20"
+
 pytestmark = [pytest.mark.ui, pytest.mark.timeout(300)]
 
 PROJECTOR = {"width": 1280, "height": 720}
@@ -60,7 +64,7 @@ def test_presentation_mode_fits_1280x720_and_exit_restores_the_page(page, dashbo
     taller and larger than normally, larger fonts, no sidebar; "Exit presentation" restores the
     normal page and the URL says present=false."""
     page.set_viewport_size(PROJECTOR)
-    open_dashboard(page, dashboard_server, "?present=true")
+    open_dashboard(page, dashboard_server, "?present=true" + SHORT)
     page.wait_for_function(TICKS_ARE, arg=17, timeout=30_000)
     page.wait_for_function("() => document.getElementById('sidebar').getBoundingClientRect().width === 0",
                            timeout=30_000)
@@ -120,7 +124,7 @@ def test_presentation_mode_fills_a_1920x1080_screen(page, dashboard_server):
     """present=true at 1920×1080: nothing scrolls, each plot is at least 70 % of the height below
     the header and the two together at least 85 % of the width, fonts as on a 1280×720 one."""
     page.set_viewport_size(FULL_HD)
-    open_dashboard(page, dashboard_server, "?present=true")
+    open_dashboard(page, dashboard_server, "?present=true" + SHORT)
     page.wait_for_function(TICKS_ARE, arg=17, timeout=30_000)
     page.wait_for_function("() => document.getElementById('sidebar').getBoundingClientRect().width === 0",
                            timeout=30_000)
@@ -132,7 +136,7 @@ def test_resizing_the_window_while_presenting_refits_the_plots(page, dashboard_s
     """Presenting at 1280×720, then 1920×1080, then 1600×900: the plots grow with the window
     and fill each large one, and nothing scrolls at any size."""
     page.set_viewport_size(PROJECTOR)
-    open_dashboard(page, dashboard_server, "?present=true")
+    open_dashboard(page, dashboard_server, "?present=true" + SHORT)
     page.wait_for_function(TICKS_ARE, arg=17, timeout=30_000)
     painted(page)
     small = page.evaluate(LOOK)
@@ -153,7 +157,7 @@ def test_resizing_the_window_while_presenting_refits_the_plots(page, dashboard_s
 def test_the_present_button_turns_the_mode_on(page, dashboard_server):
     """A click on "Present" in the header puts present=true in the URL and hides the sidebar."""
     page.set_viewport_size(PROJECTOR)
-    open_dashboard(page, dashboard_server)
+    open_dashboard(page, dashboard_server, "?" + SHORT[1:])
     page.get_by_role("button", name="Present", exact=True).click()
     page.wait_for_function("() => window.location.search.includes('present=true')", timeout=30_000)
     page.wait_for_function("() => document.getElementById('sidebar').getBoundingClientRect().width === 0",
@@ -164,7 +168,7 @@ def test_the_present_button_turns_the_mode_on(page, dashboard_server):
 def test_the_legend_is_shown_and_the_lambda_help_appears_on_hover(page, dashboard_server):
     """The regime legend names every letter of the vocabulary; hovering Λ's "?" shows the
     words of docs/model.md."""
-    open_dashboard(page, dashboard_server)
+    open_dashboard(page, dashboard_server, "?" + SHORT[1:])
     legend = page.locator(".regime-legend")
     expect(legend).to_be_visible()
     letters = [e.get_attribute("data-regime") for e in legend.locator(".legend-regime").all()]

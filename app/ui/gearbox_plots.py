@@ -4,7 +4,9 @@
 * :func:`regime_plot`: each gear's regime against engine speed (one row per gear), its onset
   marked, the variant's regimes as small squares below the baseline's;
 * :func:`metric_plot`: a column of the verdict (intensity, loudness) against engine speed per
-  gear and for the whole gearbox, the variant dashed over the baseline.
+  gear and for the whole gearbox, the variant (or second design) dashed over the baseline;
+  for loudness, the target's limit as a red line and the speeds where the gearbox misses it
+  shaded.
 
 No session, no widget: the view (:mod:`app.views.gearbox`) wraps them in DynamicMaps.
 """
@@ -16,6 +18,7 @@ import holoviews as hv
 import numpy as np
 
 from ..core import GEARBOX
+from ..core import verdict_tables as vt
 from .labels import REGIME_COLOR
 from .plots import TOOLS
 
@@ -75,9 +78,30 @@ def regime_plot(base: Any, variant: Any) -> hv.Overlay:
                                                    hooks=[_named("gb_regimes")]))
 
 
-def metric_plot(base: Any, variant: Any, column: str, label: str, logy: bool = False) -> hv.Overlay:
-    """``column`` against rpm for each gear and the gearbox; the variant dashed."""
+#: The target's limit curve per verdict column.
+TARGET_KEYS = {"loudness_sone": "sone", "spl_dba": "dba"}
+
+
+def metric_plot(base: Any, variant: Any, column: str, label: str, logy: bool = False,
+                target: Any = None) -> hv.Overlay:
+    """``column`` against rpm for each gear and the gearbox; the variant dashed; the target's
+    limit (red) with the baseline's failing speeds shaded, and the variant's hatched."""
     curves = []
+    key = TARGET_KEYS.get(column)
+    for verdict, alpha in ((base, 0.15), (variant, 0.07)):
+        tgt = None if verdict is None else vt.target_of(verdict, target)
+        if tgt is None or key not in tgt.limits:
+            continue
+        for a, b in vt.failing(verdict, tgt).get(GEARBOX, []):
+            if b <= a:
+                a, b = a - 5.0, b + 5.0
+            curves.append(hv.VSpan(a, b).opts(color="#d62728", alpha=alpha, line_alpha=0))
+    tgt = None if base is None else vt.target_of(base, target)
+    if tgt is not None and key in tgt.limits:
+        rpm = base.rpm
+        grid = np.linspace(float(rpm[0]), float(rpm[-1]), 200)
+        curves.append(hv.Curve((grid, tgt.limit(key, grid)), "rpm", column, label="target").opts(
+            color="#d62728", line_width=2))
     for verdict, dash in ((base, "solid"), (variant, "dashed")):
         if verdict is None:
             continue

@@ -6,8 +6,10 @@
    excitation settings; a measurement it names is the one shown here, never a server file).
 3. **Verdict**: every gear at every speed in the background (the session's ``gearbox`` job,
    :func:`app.work.gearbox.verdicts`, cached on disk), with progress and cancel; onsets and
-   regimes, intensity and loudness against rpm, the variant (drag +x %, backlash ±y µm)
-   dashed over the baseline.
+   regimes, intensity and loudness against rpm, against a target (a line, the failing speeds
+   shaded) and at an oil temperature; a second design dashed over the first, with a table of
+   both side by side.  The second design is a variant (drag +x %, backlash ±y µm), or design B:
+   an uploaded ``GEARBOX.toml`` or an edited copy of the gears, in its own table.
 4. **Listen** to the whole gearbox at any speed; **export** the verdict as CSV and a
    self-contained HTML report (inputs, pictures, tables).
 
@@ -25,13 +27,14 @@ import pandas as pd
 import panel as pn
 import param
 
-from ..core import Excitation, Gear, Gearbox, check_verdict_rpm
+from ..core import Excitation, Gear, Gearbox, Target, check_verdict_rpm, csv_text
+from ..core import verdict_tables as vt
 from ..state import ExplorerState, GearboxSettings
 from ..ui.gearbox_plots import metric_plot, orders_plot, regime_plot
 from ..ui.job_panel import JobPanel
 from ..ui.labels import text_html
 from ..ui.plots import HoloViewsPane
-from ..ui.widgets import Field, message
+from ..ui.widgets import Field, message, set_value
 from ..work import gearbox as work
 from ..work.threads import HV_LOCK
 
@@ -43,7 +46,8 @@ DEFAULT_GEARS = pd.DataFrame([
     ["6th", 3e-4, 0.040, 0.08, 60.0, 0.65, 1.3, 0.030]], columns=COLUMNS)
 MAX_GEARS = 12
 PLOTS = ("orders", "regimes", "intensity", "loudness")
-VARIANTS = {"no variant": "none", "drag torque +/- %": "drag", "backlash +/- µm": "backlash"}
+VARIANTS = {"no variant": "none", "drag torque +/- %": "drag", "backlash +/- µm": "backlash",
+            "design B (its own gears)": "design"}
 
 
 class GearboxView(pn.viewable.Viewer):
@@ -66,6 +70,19 @@ class GearboxView(pn.viewable.Viewer):
         self.variant: Any = None
         self.variant_text = ""
         self.report = ""
+        self.target: Any = None
+        self.identity: dict = {}
+        self.table_b = pn.widgets.Tabulator(DEFAULT_GEARS.copy(), show_index=False, height=170,
+                                            sizing_mode="stretch_width", css_classes=["gb-gears-b"])
+        self.copy_button = pn.widgets.Button(label="Edit a copy as design B",
+                                             css_classes=["gb-copy"], sizing_mode="stretch_width")
+        self.toml_b_input = pn.widgets.FileInput(accept=".toml", css_classes=["gb-toml-b"],
+                                                 sizing_mode="stretch_width")
+        self.target_input = pn.widgets.TextInput(
+            value=self.settings.target, placeholder="1000:10,3000:20 sone; 1000:60,3000:70 dba",
+            css_classes=["gb-target"], sizing_mode="stretch_width")
+        self.side_by_side = pn.pane.HTML("", css_classes=["gb-side-by-side"],
+                                         sizing_mode="stretch_width")
         self.measurement_input = pn.widgets.FileInput(accept=".csv,.gz", css_classes=["gb-measurement"],
                                                       sizing_mode="stretch_width")
         self.sample_button = pn.widgets.Button(label="Use the sample run-up (synthetic)",
@@ -99,6 +116,10 @@ class GearboxView(pn.viewable.Viewer):
             label="Report (HTML)", disabled=True, css_classes=["gb-report"], sizing_mode="stretch_width")
         self.measurement_input.param.watch(self._on_measurement, "value")
         self.toml_input.param.watch(self._on_toml, "value")
+        self.toml_b_input.param.watch(self._on_toml_b, "value")
+        self.copy_button.on_click(lambda e: self.copy_design())
+        self.target_input.param.watch(lambda e: self.set_target(e.new), "value")
+        self.settings.param.watch(lambda e: setattr(self.target_input, "value", e.new), "target")
         self.sample_button.on_click(lambda e: self.measure(None))
         self.measure_panel.cancel_button.on_click(
             lambda e: self.measure_panel.stop("Analysis cancelled: the measurement shown is kept."))
@@ -123,7 +144,7 @@ class GearboxView(pn.viewable.Viewer):
                     "intensity": lambda: metric_plot(self.base, self.variant, "intensity",
                                                      "intensity Σ I²/s [N²·s]", logy=True),
                     "loudness": lambda: metric_plot(self.base, self.variant, "loudness_sone",
-                                                    "loudness N5 [sone]")}[key]
+                                                    "loudness N5 [sone]", target=self.target)}[key]
             return hv.DynamicMap(lambda revision: draw(), streams=[hv.streams.Params(self, ["revision"])])
 
     def _redraw(self, *keys: str) -> None:
@@ -151,9 +172,14 @@ class GearboxView(pn.viewable.Viewer):
                    field("rpm_num", "gb-rpm-num"), sizing_mode="stretch_width"),
             pn.Row(field("transient", "gb-transient"), field("record", "gb-record"),
                    field("transfer", "gb-transfer"), sizing_mode="stretch_width"),
+            pn.pane.Markdown("Target (sone and/or dB(A) over rpm; empty: the file's)"),
+            self.target_input, message(s, "target"),
+            Field(s, "oil_temp", slider=False, css="gb-oil-temp", placeholder="the file's"),
             pn.widgets.Select.from_param(s.param.variant, options=VARIANTS, css_classes=["gb-variant"]),
             pn.Row(field("drag_pct", "gb-drag-pct"), field("backlash_change_um", "gb-backlash-change"),
                    sizing_mode="stretch_width"),
+            pn.pane.Markdown("Design B's gears (edit a copy, or upload its GEARBOX.toml)"),
+            self.copy_button, self.table_b, self.toml_b_input, message(st, "gearbox-design-b"),
             pn.Row(self.run_button, self.cancel_button, sizing_mode="stretch_width"),
             message(st, "gearbox-run"), self.progress, self.status,
             pn.Row(self.csv_download, self.report_download, sizing_mode="stretch_width"),
@@ -161,7 +187,7 @@ class GearboxView(pn.viewable.Viewer):
             pn.Row(field("listen_rpm", "gb-listen-rpm"), self.listen_button),
             message(st, "gearbox-listen"), self.listen_status, self.audio,
             width=460, margin=(0, 10))
-        plots = pn.Column(*self.plots.values(), sizing_mode="stretch_width")
+        plots = pn.Column(*self.plots.values(), self.side_by_side, sizing_mode="stretch_width")
         return pn.Row(controls, plots, sizing_mode="stretch_width")
 
     # ----- the measurement and the gears --------------------------------------------------
@@ -190,8 +216,10 @@ class GearboxView(pn.viewable.Viewer):
         """Parse an uploaded measurement (``None``: the sample) in a worker, with progress."""
         self.state.clear("gearbox-measure")
         what = "the sample run-up" if data is None else f"the uploaded file ({len(data)} bytes)"
+        name = (self.measurement_input.filename or "the uploaded file") if data is not None \
+            else "the sample run-up (synthetic)"
         self.measure_panel.submit(object(), work.measurement,
-                                  (data, self._orders(), self.settings.rpm_step),
+                                  (data, self._orders(), self.settings.rpm_step, name),
                                   f"Reading and analysing {what}…", work.MEASUREMENT_JOB_LIMIT,
                                   on_done=self._measured,
                                   on_error=lambda m: self._failed("gearbox-measure", self._file_error(m)))
@@ -207,6 +235,10 @@ class GearboxView(pn.viewable.Viewer):
         return msg
 
     def _measured(self, omap: Any) -> None:
+        if isinstance(omap, tuple):  # (the map, the file's name and hash)
+            omap, identity = omap
+            if omap is not None:
+                self.identity = identity
         if omap is None:  # cancelled
             return
         self.order_map, self.constant = omap, None
@@ -233,10 +265,7 @@ class GearboxView(pn.viewable.Viewer):
                          on_error=lambda m: self.state.say("gearbox-gears", m))
 
     def _toml_read(self, box: Any) -> None:
-        rows = [[g.name, g.inertia_kgm2, g.base_radius_m, g.drag_torque_Nm, g.backlash_um,
-                 g.restitution, g.speed_ratio, np.nan if g.driver_radius_m is None else g.driver_radius_m]
-                for g in box.gears]
-        self.table.value = pd.DataFrame(rows, columns=COLUMNS)
+        self.table.value = pd.DataFrame(_gear_rows(box), columns=COLUMNS)
         exc = box.excitation
         self.settings.param.update(engine_order=exc.engine_order, harmonics=exc.harmonics,
                                    transfer=box.transfer_pa_per_ns)
@@ -245,6 +274,31 @@ class GearboxView(pn.viewable.Viewer):
             self.measure_status.object = text_html("Constant orders from the gearbox file.")
         elif exc.order_map is not self.order_map:
             self._measured(exc.order_map)
+
+    def _on_toml_b(self, event) -> None:
+        data = self._upload(event.new, "gearbox-design-b", work.MAX_TOML_BYTES)
+        if data is None:
+            return
+        self.jobs.submit("gearbox-toml-b", work.gearbox_text, (data, self.order_map),
+                         time_limit=120.0, on_done=self._toml_b_read,
+                         on_error=lambda m: self.state.say("gearbox-design-b", m))
+
+    def _toml_b_read(self, box: Any) -> None:
+        self.table_b.value = pd.DataFrame(_gear_rows(box), columns=COLUMNS)
+        self.settings.variant = "design"
+
+    def copy_design(self) -> None:
+        """Design B starts as a copy of the gears, to be edited."""
+        self.table_b.value = self.table.value.copy()
+        self.settings.variant = "design"
+
+    def set_target(self, text: str) -> bool:
+        """Take the target text, or leave the reason beside it (plain text); True if taken."""
+        text = str(text or "").strip()
+        if set_value(self.settings, "target", text):
+            self.settings.clear("target")
+            return True
+        return False
 
     def _add_gear(self) -> None:
         df = self.table.value
@@ -259,11 +313,12 @@ class GearboxView(pn.viewable.Viewer):
         if len(self.table.value) > 1:
             self.table.value = self.table.value.iloc[:-1].reset_index(drop=True)
 
-    def gearbox(self) -> Gearbox:
-        """The gearbox the tab describes; ``ValueError`` naming what is wrong."""
+    def gearbox(self, table: Any = None) -> Gearbox:
+        """The gearbox the tab describes (with the gears of ``table``, default the first);
+        ``ValueError`` naming what is wrong."""
         s = self.settings
         gears = []
-        for i, row in self.table.value.iterrows():
+        for i, row in (self.table if table is None else table).value.iterrows():
             values = {c: row[c] for c in COLUMNS}
             values["name"] = str(values["name"])
             dr = values["driver_radius_m"]
@@ -289,7 +344,30 @@ class GearboxView(pn.viewable.Viewer):
         if s.variant == "backlash":
             return box.replace(gears=tuple(g.replace(backlash_um=g.backlash_um + s.backlash_change_um)
                                            for g in box.gears)), f"backlash {s.backlash_change_um:+g} µm"
+        if s.variant == "design":
+            try:
+                other = self.gearbox(self.table_b)
+            except ValueError as exc:
+                raise ValueError(f"design B, {exc}") from None
+            return other.replace(**{k: getattr(box, k) for k in ("target", "oil_temp_C")
+                                    if hasattr(box, k)}), "design B"
         return None, ""
+
+    def with_settings(self, box: Gearbox) -> Gearbox:
+        """``box`` with the tab's target and oil temperature (``ValueError`` naming them)."""
+        s = self.settings
+        if self.target is not None:
+            try:
+                box = box.replace(target=self.target)
+            except TypeError:
+                pass  # a model without targets: the tables still judge by it (verdict_tables)
+        if s.oil_temp is not None:
+            try:
+                box = box.replace(oil_temp_C=float(s.oil_temp))
+            except TypeError:
+                raise ValueError("oil temperature: this gearbox model has no oil temperature; "
+                                 "leave it empty") from None
+        return box
 
     # ----- the verdict --------------------------------------------------------------------
 
@@ -304,6 +382,8 @@ class GearboxView(pn.viewable.Viewer):
             st.say("gearbox-gears", str(exc))
             return False
         try:
+            self.target = Target.parse(s.target) if s.target else None
+            box = self.with_settings(box)
             variant, text = self.variant_of(box)
             if not s.rpm_start < s.rpm_stop:
                 raise ValueError(f"rpm from ({s.rpm_start:g}) must be below rpm to ({s.rpm_stop:g})")
@@ -318,11 +398,21 @@ class GearboxView(pn.viewable.Viewer):
             return False
         self.variant_text = text
         self.run_panel.submit(
-            object(), work.verdicts, (box, variant, rpm, s.transient, s.record, text),
+            object(), work.verdicts, (box, variant, rpm, s.transient, s.record, text, self.target,
+                                      self.provenance()),
             f"Computing {len(box.gears)} gears × {rpm.size} speeds"
             f"{' and the variant' if variant is not None else ''}…", 600.0,
             on_done=self._done, on_error=self._error)
         return True
+
+    def provenance(self) -> dict:
+        """The measurement's name and hash, and the tab's settings, for the report."""
+        s = self.settings
+        out = dict(self.identity)
+        out["settings"] = {"target": s.target or "the file's", "what-if": self.variant_text or s.variant}
+        if s.oil_temp is not None:
+            out["settings"]["oil temperature [°C]"] = s.oil_temp
+        return out
 
     @property
     def job(self) -> Any:
@@ -349,16 +439,47 @@ class GearboxView(pn.viewable.Viewer):
         self.run_panel.say(text)
         self.csv_download.disabled = False
         self.report_download.disabled = not self.report
+        self.side_by_side.object = self.side_by_side_html()
         self.revision += 1
 
+    def side_by_side_frame(self) -> pd.DataFrame:
+        """Per gear and for the gearbox: onset, ranges, loudness, dB(A) and pass of the first
+        design and, if there is one, the second."""
+        rows = []
+        designs = [("A", self.base)] + ([("B", self.variant)] if self.variant is not None else [])
+        for tag, res in designs:
+            t = vt.frame(res, self.target)
+            rng = vt.ranges(res)
+            for name in vt.gear_names(res) + [vt.GEARBOX]:
+                g = t[t["gear"] == name]
+                row = {"gear": name, "design": tag,
+                       "onset [rpm]": res.onsets.get(name, np.nan),
+                       "rattle ranges [rpm]": vt.format_ranges(rng.get(name, [])),
+                       "loudness max [sone]": g["loudness_sone"].max()}
+                if "spl_dba" in g:
+                    row["L_Aeq max [dB(A)]"] = g["spl_dba"].max()
+                if "pass" in g:
+                    row["pass"] = "pass" if g["pass"].astype(bool).all() else "fail"
+                rows.append(row)
+        return pd.DataFrame(rows)
+
+    def side_by_side_html(self) -> str:
+        if self.base is None:
+            return ""
+        df = self.side_by_side_frame()
+        return "<b>Side by side</b>" + df.to_html(index=False, escape=True, float_format="%.4g",
+                                                  na_rep="—")
+
     def csv(self) -> io.StringIO:
-        """The verdict (and the variant's, with a ``case`` column) as CSV."""
+        """The verdict as CSV; with a second design, both with a ``design`` column and the
+        ``B - A`` rows (:func:`rattle_core.store.verdict_tables.compare_frame`); formulas
+        neutralised."""
         if self.base is None:
             return io.StringIO("")
-        frames = [self.base.table.assign(case="baseline")]
-        if self.variant is not None:
-            frames.append(self.variant.table.assign(case=self.variant_text))
-        return io.StringIO(pd.concat(frames, ignore_index=True).to_csv(index=False))
+        if self.variant is None:
+            return io.StringIO(csv_text(vt.frame(self.base, self.target).assign(design="baseline")))
+        names = vt.design_names("baseline", self.variant_text)
+        return io.StringIO(csv_text(vt.compare_frame(self.base, self.variant, names, self.target)))
 
     # ----- listening ----------------------------------------------------------------------
 
@@ -384,3 +505,10 @@ class GearboxView(pn.viewable.Viewer):
         self.listen_status.object = text_html(
             f"The gearbox at {out['rpm']:g} rpm: {out['sone']:.3g} sone, peak {out['peak_pa']:.3g} Pa "
             "(played normalised).")
+
+
+def _gear_rows(box: Any) -> list[list]:
+    """A gearbox's gears as rows of the gear table."""
+    return [[g.name, g.inertia_kgm2, g.base_radius_m, g.drag_torque_Nm, g.backlash_um,
+             g.restitution, g.speed_ratio, np.nan if g.driver_radius_m is None else g.driver_radius_m]
+            for g in box.gears]

@@ -12,6 +12,8 @@ open no file (:meth:`rattle_core.model.gearbox.Gearbox.from_text`).
 from __future__ import annotations
 
 import base64
+import datetime
+import hashlib
 import html
 import io
 import math
@@ -39,11 +41,14 @@ MEASUREMENT_JOB_LIMIT = MEASUREMENT_SECONDS + 30.0
 LISTEN_SECONDS = 2.0
 
 
-def measurement(data: bytes | None, orders: tuple, rpm_step: float) -> Any:
+def measurement(data: bytes | None, orders: tuple, rpm_step: float, name: str | None = None) -> Any:
     """The order map of uploaded bytes (``None``: the shipped synthetic run-up), with progress;
     ``None`` when the job is cancelled.  An upload over :data:`MAX_MEASUREMENT_BYTES` or
     :data:`MEASUREMENT_MAX_ROWS`, or one whose analysis outlasts :data:`MEASUREMENT_SECONDS`,
-    is refused with a message about the file."""
+    is refused with a message about the file.  With ``name`` (the file's name, shown only
+    escaped), the pair ``(map, {"file", "sha256", "bytes"})``."""
+    if name is not None:
+        return measurement(data, orders, rpm_step), {"file": str(name)[:200], **file_identity(data)}
     from ..core import SAMPLE_RUNUP, OrderMap
     if data is None:
         return OrderMap.from_csv(SAMPLE_RUNUP, orders, rpm_step, label="the sample run-up (synthetic)",
@@ -94,9 +99,9 @@ def gearbox_text(data: bytes, order_map: Any) -> Any:
 
 
 def verdicts(gearbox: Any, variant: Any, rpm: np.ndarray, transient: int, record: int,
-             variant_text: str = "") -> tuple:
-    """The verdict on ``gearbox`` and, if given, on ``variant``, through the disk cache, and
-    the report of both (:func:`report_html`; empty when cancelled)."""
+             variant_text: str = "", target: Any = None, provenance: dict | None = None) -> tuple:
+    """The verdict on ``gearbox`` and, if given, on ``variant`` (a what-if or a second design),
+    through the disk cache, and the report of both (:func:`report_html`; empty when cancelled)."""
     from ..core import cached_verdict
     boxes = [b for b in (gearbox, variant) if b is not None]
     total = len(boxes)
@@ -109,7 +114,17 @@ def verdicts(gearbox: Any, variant: Any, rpm: np.ndarray, transient: int, record
         if out[-1].cancelled:
             return out[0], None, ""
     variant_result = out[1] if len(out) > 1 else None
-    return out[0], variant_result, report_html(out[0], variant_result, variant_text)
+    return out[0], variant_result, report_html(out[0], variant_result, variant_text, target,
+                                               provenance)
+
+
+def file_identity(data: bytes | None) -> dict:
+    """The SHA-256 of a measurement's bytes (``None``: the shipped sample's file)."""
+    from ..core import SAMPLE_RUNUP
+    if data is None:
+        with open(SAMPLE_RUNUP, "rb") as f:
+            data = f.read()
+    return {"sha256": hashlib.sha256(data).hexdigest(), "bytes": len(data)}
 
 
 def sound(gearbox: Any, rpm: float, seconds: float = LISTEN_SECONDS) -> dict:
@@ -131,48 +146,111 @@ def sound(gearbox: Any, rpm: float, seconds: float = LISTEN_SECONDS) -> dict:
             "sone": heard.loudness_sone, "peak_pa": float(np.max(np.abs(total))), "rpm": rpm}
 
 
-def report_html(base: Any, variant: Any, variant_text: str) -> str:
-    """A self-contained HTML report: the inputs, the pictures (PNG inside the file) and the
-    tables.  Every text from a user (gear names, file labels) is escaped."""
-    from ..core import orders_png, verdict_png
-    esc = html.escape
+def campbell_html(order_map: Any) -> str:
+    """The Campbell view of the order analysis, where the order map provides one (a
+    ``campbell_png`` drawing beside ``orders_png``); empty otherwise."""
+    from .. import core
+    draw = getattr(core, "campbell_png", None)
+    if order_map is None or draw is None:
+        return ""
+    return "<h2>Campbell view</h2>" + _png(draw, order_map, "Campbell view")
 
-    def png(draw, *args) -> str:
-        buf = io.BytesIO()
-        draw(buf, *args)
-        return f'<img alt="" style="max-width:100%" src="data:image/png;base64,{base64.b64encode(buf.getvalue()).decode()}">'
+
+def _png(draw, *args, **kwargs) -> str:
+    buf = io.BytesIO()
+    draw(buf, *args, **kwargs)
+    return ('<img alt="" style="max-width:100%" src="data:image/png;base64,'
+            f'{base64.b64encode(buf.getvalue()).decode()}">')
+
+
+def _table(df: Any) -> str:
+    """A verdict table as HTML: units in every header, text escaped."""
+    from ..core import verdict_tables as vt
+    return vt.with_units(df).to_html(index=False, escape=True, float_format="%.4g")
+
+
+def report_html(base: Any, variant: Any, variant_text: str, target: Any = None,
+                provenance: dict | None = None) -> str:
+    """A self-contained HTML report to hand on: where the numbers come from (the measurement's
+    file name and SHA-256, the date in UTC, the version, the settings), the regime legend, the
+    inputs, each gear's ranges and sentence, the target's failing ranges, the pictures (PNG
+    inside the file) and the tables with units.  Every text from a user (gear names, file
+    names, labels) is escaped."""
+    from ..core import REGIME_WORDS, designs_png, orders_png, verdict_png
+    from ..core import verdict_tables as vt
+    esc = html.escape
+    prov = dict(provenance or {})
     box = base.gearbox
     exc = box.excitation
     source = exc.order_map.source if exc.order_map is not None else "constant orders"
+    target = vt.target_of(base, target)
+    try:
+        from importlib.metadata import version
+        ver = version("rattle-explorer")
+    except Exception:  # an uninstalled checkout
+        ver = "unknown"
+    settings = {"speeds [rpm]": f"{base.rpm[0]:g} to {base.rpm[-1]:g} ({base.rpm.size})",
+                **{k: v for k, v in base.settings.items()},
+                "transfer [Pa/(N·s)]": box.transfer_pa_per_ns, "sound per point [s]": box.duration_s,
+                "engine order of the fundamental": exc.engine_order, "harmonics": exc.harmonics}
+    if getattr(box, "oil_temp_C", None) is not None:
+        settings["oil temperature [°C]"] = box.oil_temp_C
+    if target is not None:
+        settings["target"] = "; ".join(
+            ",".join(f"{r:g}:{v:g}" for r, v in zip(target.rpm, vals)) + f" {key}"
+            for key, vals in target.limits.items())
+    settings.update(prov.get("settings", {}))
     gears = "".join("<tr>" + "".join(f"<td>{esc(str(v))}</td>" for v in (
         g.name, g.inertia_kgm2, g.base_radius_m, g.drag_torque_Nm, g.backlash_um, g.restitution,
         g.speed_ratio, g.drive_radius_m)) + "</tr>" for g in box.gears)
+    rows = "".join(f"<tr><th>{esc(str(k))}</th><td>{esc(str(v))}</td></tr>" for k, v in (
+        ("measurement file", prov.get("file", source)),
+        ("measurement SHA-256", prov.get("sha256", "none (constant orders)")),
+        ("date (UTC)", datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")),
+        ("rattle-explorer version", ver), *settings.items()))
+    legend = "".join(f"<tr><td><b>{esc(r.letter)}</b></td><td>{esc(r.meaning)}</td></tr>"
+                     for r in REGIME_WORDS)
     parts = [
         "<!DOCTYPE html><html><head><meta charset='utf-8'><title>Rattle verdict</title>",
         "<style>body{font-family:sans-serif;margin:2em}table{border-collapse:collapse;font-size:12px}"
         "td,th{border:1px solid #ccc;padding:2px 6px}</style></head><body>",
         "<h1>Gear rattle verdict</h1>",
+        "<h2>Provenance and settings</h2><table class='provenance'>" + rows + "</table>",
         f"<p>Excitation: {esc(source)}; model fundamental at engine order {exc.engine_order:g}, "
         f"{exc.harmonics} harmonics. Sound: {box.transfer_pa_per_ns:g} Pa per N·s, "
         f"{box.duration_s:g} s per point. Speeds {base.rpm[0]:g} to {base.rpm[-1]:g} rpm "
         f"({base.rpm.size}).</p>",
+        "<h2>Regimes</h2><table class='legend'>" + legend + "</table>",
         "<h2>Gears</h2><table><tr><th>gear</th><th>J [kg·m²]</th><th>R_b [m]</th><th>C [N·m]</th>"
         "<th>backlash [µm]</th><th>r</th><th>speed ratio</th><th>R_d [m]</th></tr>" + gears + "</table>",
-        "<h2>Onsets</h2><ul>" + "".join(
-            f"<li>{esc(k)}: {'rattles from %g rpm' % v if math.isfinite(v) else 'never leaves contact'}</li>"
-            for k, v in base.onsets.items()) + "</ul>",
+        "<h2>What rattles, and what keeps it quiet</h2><ul class='summaries'>" + "".join(
+            f"<li>{esc(line)}</li>" for line in vt.gear_lines(base, target)) + "</ul>",
     ]
+    if target is not None:
+        fails = vt.failing(base, target)
+        parts.append("<h2>Target</h2><p>" + esc(settings["target"]) + "</p><ul class='failing'>"
+                     + "".join(f"<li>{esc(n)}: "
+                               f"{esc(vt.format_ranges(r)) + ' rpm' if r else 'meets the target'}</li>"
+                               for n, r in fails.items()) + "</ul>")
     if exc.order_map is not None:
-        parts.append("<h2>Measured orders</h2>" + png(orders_png, exc.order_map, f"orders of {source}"))
-    parts.append("<h2>Verdict</h2>" + png(verdict_png, base, "baseline"))
+        parts.append("<h2>Measured orders</h2>" + _png(orders_png, exc.order_map, f"orders of {source}"))
+        parts.append(campbell_html(exc.order_map))
+    parts.append("<h2>Verdict</h2>" + _png(verdict_png, base, "baseline"))
+    designs = [(base, "A")] + ([(variant, "B")] if variant is not None else [])
+    parts.append("<h2>Loudness" + (" of both designs (B dashed)" if variant is not None else "")
+                 + (", target and failing speeds" if target is not None else "") + "</h2>"
+                 + _png(designs_png, designs, "A: baseline" + (f"; B: {variant_text}"
+                                                                 if variant is not None else ""),
+                        target))
     if variant is not None:
-        parts.append(f"<h2>Variant: {esc(variant_text)}</h2>" + png(verdict_png, variant, variant_text))
-        parts.append("<ul>" + "".join(
-            f"<li>{esc(k)}: {'rattles from %g rpm' % v if math.isfinite(v) else 'never leaves contact'}</li>"
-            for k, v in variant.onsets.items()) + "</ul>")
-    parts.append("<h2>Table</h2>" + base.table.to_html(index=False, escape=True, float_format="%.4g"))
+        parts.append(f"<h2>B: {esc(variant_text)}</h2>" + _png(verdict_png, variant, variant_text))
+        parts.append("<h3>A and B side by side</h3><ul class='compare'>" + "".join(
+            f"<li>{esc(line)}</li>" for line in vt.compare_lines(base, variant, ("baseline",
+                                                                                 variant_text),
+                                                                target)) + "</ul>")
+    parts.append("<h2>Table</h2>" + _table(vt.frame(base, target)))
     if variant is not None:
-        parts.append("<h2>Variant table</h2>" + variant.table.to_html(index=False, escape=True,
-                                                                     float_format="%.4g"))
+        parts.append("<h2>Both designs, and B - A</h2>"
+                     + _table(vt.compare_frame(base, variant, ("A", "B"), target)))
     parts.append("</body></html>")
     return "\n".join(parts)

@@ -6,6 +6,9 @@ Two sessions can therefore run Python at once, and HoloViews keeps process-wide 
 (streams, options) that are not safe against that. So:
 
 * :data:`HV_LOCK` is held while HoloViews builds streams or plots and while a session redraws;
+  a page is built one view and one plot at a time, each under the lock on its own, and the
+  lock passes to its waiters in turn (:class:`FairRLock`): another session's redraw waits for
+  one plot of a heavy page, never for the whole page;
 * :func:`unlocked` lets go of it around computation (a simulation never holds it);
 * :func:`later` runs a state change that comes from a HoloViews stream callback (a click, a
   zoom, which HoloViews runs outside the document's lock) on the session's next tick, where
@@ -13,6 +16,7 @@ Two sessions can therefore run Python at once, and HoloViews keeps process-wide 
 """
 from __future__ import annotations
 
+import collections
 import contextlib
 import logging
 import threading
@@ -22,12 +26,74 @@ import panel as pn
 
 log = logging.getLogger(__name__)
 
+class FairRLock:
+    """A reentrant lock handed to its waiters first come, first served.
+
+    ``threading.RLock`` lets the thread that releases it take it straight back: a page built
+    plot after plot, releasing between plots, would keep it while another session's redraw
+    waited for the whole page. Here a release with waiters hands the lock to the one that
+    waited longest.
+    """
+
+    def __init__(self) -> None:
+        self._mutex = threading.Lock()
+        self._owner: int | None = None
+        self._count = 0
+        self._waiters: collections.deque[tuple[int, threading.Lock]] = collections.deque()
+
+    def acquire(self, blocking: bool = True, timeout: float = -1) -> bool:
+        me = threading.get_ident()
+        with self._mutex:
+            if self._owner == me:
+                self._count += 1
+                return True
+            if self._owner is None and not self._waiters:
+                self._owner, self._count = me, 1
+                return True
+            if not blocking:
+                return False
+            gate = threading.Lock()
+            gate.acquire()
+            entry = (me, gate)
+            self._waiters.append(entry)
+        if gate.acquire(timeout=timeout):
+            return True  # handed over by release(), which made this thread the owner
+        with self._mutex:
+            if self._owner == me:  # handed over just as the wait timed out
+                return True
+            self._waiters.remove(entry)
+            return False
+
+    def release(self) -> None:
+        with self._mutex:
+            if self._owner != threading.get_ident():
+                raise RuntimeError("cannot release an un-acquired lock")
+            self._count -= 1
+            if self._count:
+                return
+            if self._waiters:
+                owner, gate = self._waiters.popleft()
+                self._owner, self._count = owner, 1
+                gate.release()
+            else:
+                self._owner = None
+
+    def _is_owned(self) -> bool:
+        return self._owner == threading.get_ident()
+
+    def __enter__(self) -> bool:
+        return self.acquire()
+
+    def __exit__(self, *exc: Any) -> None:
+        self.release()
+
+
 #: Held while HoloViews builds streams or plots, and while a session redraws. Bokeh applies
 #: each session's browser events in a worker thread, so two sessions can draw at once, and
 #: HoloViews keeps process-wide registries (streams, options): a stream added by one session
 #: while another builds a plot breaks the walk of the stream registry ("dictionary changed
 #: size during iteration").
-HV_LOCK = threading.RLock()
+HV_LOCK = FairRLock()
 
 
 @contextlib.contextmanager

@@ -25,6 +25,14 @@ Single numbers
     time-varying sounds); ``sharpness_acum`` is the mean DIN 45692 sharpness over the frames
     with loudness.  The first :data:`SKIP_S` seconds are left out of both (the filters settle).
     A silent signal is 0 sone and 0 acum.
+Incoherent sources
+    Sounds from independent sources (a gearbox's gears, each heard through its own path) have
+    unrelated phases: their energies add, not their pressures.  Adding the pressures of two
+    rattle sounds lets their ringing cancel in places, so the total could be quieter than one
+    of its parts.  :func:`loudness_incoherent` adds the sources' third-octave band intensities
+    (stage 1's output, sample by sample) and runs stages 2 to 5 on the sum.  Every later stage
+    grows with the band levels, so the total is never quieter than its loudest part; and of one
+    source it is that source's loudness, exactly.
 From impulses to sound pressure
     Loudness is not linear in level, so the sound needs an absolute level.  The rattle sound of
     :mod:`rattle_core.analysis.sound` rings the housing's modes with each impact's impulse in
@@ -549,11 +557,9 @@ def _sharpness(N, spec, g, z):
 
 
 @njit(cache=True, nogil=True)
-def _zwtv(x, coef, floor, i_ref, rap, dll, ltq, a0, dcb, mp1, B, zup, rns,
-          rns_scaled, usl, zstep, poles, w0, w1):
-    """All five stages: ``N(t)`` and ``N'(z, t)`` every 2 ms, and the highest level of the
-    bands below 315 Hz (the method holds up to 120 dB)."""
-    levels = _band_levels(x, coef, floor, i_ref, _DECIMATE)
+def _zwtv_levels(levels, rap, dll, ltq, a0, dcb, mp1, B, zup, rns, rns_scaled, usl, zstep,
+                 poles, w0, w1):
+    """Stages 2 to 5 from the third-octave levels of stage 1."""
     low = -np.inf
     for b in range(11):
         for c in range(levels.shape[1]):
@@ -563,6 +569,16 @@ def _zwtv(x, coef, floor, i_ref, rap, dll, ltq, a0, dcb, mp1, B, zup, rns,
     total, spec = _slopes(nl, zup, rns, rns_scaled, usl, zstep, _SPEC, _OUT_EVERY)
     weighted = _temporal_weighting(total, poles, w0, w1, _STEPS)
     return weighted[::_OUT_EVERY].copy(), spec, low
+
+
+@njit(cache=True, nogil=True)
+def _zwtv(x, coef, floor, i_ref, rap, dll, ltq, a0, dcb, mp1, B, zup, rns,
+          rns_scaled, usl, zstep, poles, w0, w1):
+    """All five stages: ``N(t)`` and ``N'(z, t)`` every 2 ms, and the highest level of the
+    bands below 315 Hz (the method holds up to 120 dB)."""
+    levels = _band_levels(x, coef, floor, i_ref, _DECIMATE)
+    return _zwtv_levels(levels, rap, dll, ltq, a0, dcb, mp1, B, zup, rns, rns_scaled, usl,
+                        zstep, poles, w0, w1)
 
 
 def _check_signal(signal, fs) -> np.ndarray:
@@ -670,16 +686,29 @@ def loudness(pressure_pa: np.ndarray, fs: int = SAMPLE_RATE) -> Loudness:
     fs : int
         48 000 Hz (ISO 532-1).
     """
+    p = _check_pressure(pressure_pa)
+    if not np.any(p):
+        return _silence(p.size)
+    N, spec, _, t = loudness_zwtv(p, fs)
+    return _single_numbers(N, spec, t)
+
+
+def _check_pressure(pressure_pa) -> np.ndarray:
     p = np.asarray(pressure_pa, dtype=np.float64)
     if p.ndim != 1 or p.size < 0.1 * SAMPLE_RATE:
         raise ValueError(f"pressure_pa must be a signal of at least 0.1 s at {SAMPLE_RATE} Hz, "
                          f"got shape {p.shape}")
     if not np.all(np.isfinite(p)):
         raise ValueError("pressure_pa must be finite")
-    if not np.any(p):
-        t = np.arange(p.size // 96) * 0.002
-        return Loudness(0.0, 0.0, t, np.zeros(t.size))
-    N, spec, _, t = loudness_zwtv(p, fs)
+    return p
+
+
+def _silence(n: int) -> Loudness:
+    t = np.arange(n // 96) * 0.002
+    return Loudness(0.0, 0.0, t, np.zeros(t.size))
+
+
+def _single_numbers(N: np.ndarray, spec: np.ndarray, t: np.ndarray) -> Loudness:
     keep = t >= SKIP_S
     n5 = float(np.percentile(N[keep], 95)) if np.any(keep) else float(np.percentile(N, 95))
     S = sharpness_din(N, spec)
@@ -688,5 +717,55 @@ def loudness(pressure_pa: np.ndarray, fs: int = SAMPLE_RATE) -> Loudness:
     return Loudness(n5, sharp, t, N)
 
 
-__all__ = ["Loudness", "loudness", "loudness_zwtv", "sharpness_din", "sharpness_din_tv",
+def band_levels(pressure_pa: np.ndarray, fs: int = SAMPLE_RATE) -> np.ndarray:
+    """ISO 532-1's third-octave band levels [dB] of a sound pressure [Pa] (stage 1), shape
+    ``(28, level samples)`` every 0.5 ms: the input of :func:`loudness_of_levels`."""
+    p = _check_pressure(pressure_pa)
+    x = _check_signal(p, fs)
+    return _band_levels(x, _BANK, _FLOOR, _I_REF, _DECIMATE)
+
+
+def sum_levels(levels: list) -> np.ndarray:
+    """Band levels of incoherent sources together: the band intensities added, sample by
+    sample (one source's levels are returned as they are)."""
+    if len(levels) == 1:
+        return levels[0]
+    floor = _FLOOR / _I_REF
+    total = sum(10.0 ** (np.asarray(lv) / 10.0) - floor for lv in levels) + floor
+    return 10.0 * np.log10(total)
+
+
+def loudness_of_levels(levels: np.ndarray, samples: int) -> Loudness:
+    """Loudness and sharpness (as :func:`loudness`) from band levels of :func:`band_levels` or
+    :func:`sum_levels`, of a sound ``samples`` long at 48 kHz."""
+    N, spec, low = _zwtv_levels(np.ascontiguousarray(levels, dtype=np.float64), _RAP, _DLL,
+                                _LTQ, _A0, _DCB, _MP1, _DECAY, _ZUP, _RNS, _RNS_SCALED, _USL,
+                                _ZUP_STEP, _WEIGHT_POLES, *_WEIGHTS)
+    if low > MAX_LOW_LEVEL_DB:
+        raise ValueError(f"signal has a third-octave level of {low:.1f} dB below 315 Hz; the "
+                         f"allowed range is up to {MAX_LOW_LEVEL_DB:g} dB (ISO 532-1's range)")
+    frames = (samples + _DECIMATE - 1) // _DECIMATE
+    t = np.linspace(0, samples / SAMPLE_RATE, num=frames)[::_OUT_EVERY]
+    return _single_numbers(N, spec, t)
+
+
+def loudness_incoherent(pressures: list, fs: int = SAMPLE_RATE) -> Loudness:
+    """Loudness and sharpness of incoherent sources heard together (module docstring).
+
+    Each signal's third-octave band intensities are added before the rest of ISO 532-1, so
+    their phases never cancel; silent signals add nothing.  Of one signal it is
+    :func:`loudness` exactly.  The signals are sound pressures [Pa] of equal length at ``fs``.
+    """
+    ps = [_check_pressure(p) for p in pressures]
+    if not ps or any(p.size != ps[0].size for p in ps):
+        raise ValueError(f"pressures must be 1 or more signals of equal length, got "
+                         f"{[p.size for p in ps]} samples")
+    heard = [p for p in ps if np.any(p)]
+    if not heard:
+        return _silence(ps[0].size)
+    return loudness_of_levels(sum_levels([band_levels(p, fs) for p in heard]), ps[0].size)
+
+
+__all__ = ["Loudness", "loudness", "loudness_incoherent", "band_levels", "sum_levels",
+           "loudness_of_levels", "loudness_zwtv", "sharpness_din", "sharpness_din_tv",
            "SAMPLE_RATE", "DEFAULT_TRANSFER_PA_PER_NS", "SKIP_S", "BARK"]

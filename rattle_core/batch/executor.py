@@ -118,11 +118,7 @@ def connect(address: str, workers: int = LOCAL_WORKERS, timeout: str = "10s"
         if address == "local":
             cluster = local_cluster(workers)
             client = Client(cluster, set_as_default=False)
-
-            def close() -> None:
-                client.close()
-                cluster.close()
-            return client, close
+            return client, lambda: close_local(client, cluster)
         client = Client(address, timeout=timeout, set_as_default=False)
     except Exception as exc:
         text = " ".join(str(exc).split()) or type(exc).__name__
@@ -144,6 +140,43 @@ def local_cluster(workers: int = LOCAL_WORKERS) -> Any:
     # set before the cluster starts: each worker process takes the configuration of this one
     dask.config.set({"distributed.comm.retry.count": COMM_RETRIES})
     return LocalCluster(n_workers=int(workers), threads_per_worker=1, dashboard_address=None)
+
+
+def close_local(client: Any, cluster: Any, timeout: float = 20.0) -> None:
+    """Close ``client`` and its local ``cluster``, and wait until the worker processes have ended.
+
+    ``cluster.close()`` may give up (its timeout, on a loaded machine) while a worker
+    process still runs: that process outlived the command, and the queues each nanny shares
+    with its worker were released only at interpreter exit, too late for the resource
+    tracker, which reported leaked semaphores.  Here each worker process is joined (killed
+    after ``timeout``), its nanny's record of it released, and what is left collected while
+    the interpreter is whole.
+    """
+    import gc
+
+    # each nanny's WorkerProcess, and the multiprocessing.Process under it
+    records = [getattr(nanny, "process", None) for nanny in list(getattr(cluster, "workers", {}).values())]
+    processes = [getattr(getattr(r, "process", None), "_process", None) for r in records]
+    for closing in (client.close, lambda: cluster.close(timeout=timeout)):
+        try:
+            closing()
+        except Exception:  # a close that timed out: its worker processes are ended below
+            pass
+    for process in processes:
+        if process is None:
+            continue
+        process.join(timeout)
+        if process.is_alive():
+            process.kill()
+            process.join(5)
+    for record in records:
+        if getattr(record, "process", None) is not None:
+            try:
+                record.mark_stopped()  # what the nanny does when it sees its worker end
+            except Exception:
+                pass
+    del records, processes
+    gc.collect()
 
 
 @contextlib.contextmanager

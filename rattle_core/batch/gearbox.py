@@ -4,13 +4,21 @@
 each chunk (all gears at a few speeds) is one task of :func:`~rattle_core.batch.executor.run_chunks`
 (here, or on Dask), with progress and cancel between chunks.  A task runs its points through
 the chunk runner (:func:`~rattle_core.batch.chunks.run_chunk`, one parallel kernel), classifies
-them, renders each gear's rattle and the whole gearbox's (the gears' sound pressures added) and
-measures their loudness (:mod:`rattle_core.analysis.loudness`); it sends back one row per gear
-and speed.  Within a chunk the speeds' sounds run on threads (``threads``, every core by
+them, renders each gear's rattle and measures its loudness and level, and the whole
+gearbox's; it sends back one row per gear and speed.  Within a chunk the speeds' sounds run on threads (``threads``, every core by
 default): rendering and loudness are compiled kernels that release the GIL, so the threads run
 at once, while the chunk's own thread finds the intervals of the points that do not repeat.
 Each speed's numbers come from its own sounds alone, so the verdict is the same, row for row,
 on any number of threads.
+
+The gears are incoherent sources, each heard through its own transfer path: their phases are
+unrelated, so their energies add, not their pressures (adding pressures lets their ringing
+cancel, and the total could be quieter than one gear).  The gearbox's ``spl_dba`` is the energy
+sum of the gears' L_Aeq; its ``spl_dba_max`` the fast-weighted maximum of the summed A-weighted
+energies ``Σ p_A,g²``; its loudness and sharpness come from the gears' third-octave band
+intensities added before the rest of ISO 532-1
+(:func:`~rattle_core.analysis.loudness.loudness_incoherent`).  Every stage after the bands
+grows with the band levels, so the gearbox is never quieter than its loudest gear.
 
 Columns of :attr:`Verdict.table` (one row per gear and speed, then one per speed with ``gear``
 = :data:`GEARBOX`, the gears together):
@@ -27,6 +35,10 @@ Columns of :attr:`Verdict.table` (one row per gear and speed, then one per speed
 ``loudness_sone``, ``sharpness_acum``
     ISO 532-1 loudness ``N5`` and DIN 45692 sharpness of the rattle's sound over the gearbox's
     ``duration_s`` (:mod:`rattle_core.analysis.loudness`); 0 for a gear in permanent contact.
+``spl_dba``, ``spl_dba_max``
+    L_Aeq over that sound and L_AFmax [dB(A)] (:func:`~rattle_core.analysis.levels.level`, the
+    same calibrated pressure at ``SAMPLE_RATE``).  A silent sound's level is −inf dB; the table
+    holds NaN.
 ``onset_rpm``
     The lowest speed of the sweep at which the gear leaves permanent contact (NaN if it never
     does; the sweep's first speed if it rattles throughout).
@@ -37,9 +49,18 @@ Columns of :attr:`Verdict.table` (one row per gear and speed, then one per speed
     (:func:`~rattle_core.batch.ensemble.statistics`, each of the point's own transient and
     recorded periods), or with ``ensemble_runs=0`` ``blocks``: one run's recorded window cut
     into :data:`BLOCKS` blocks, Student's t over the block means (the single run's uncertainty,
-    which understates a slow drift between attractors' regions).
+    which understates a slow drift between attractors' regions).  The rates and intervals are
+    those of the attractor the point's own run is on (:func:`own_attractor`); where the runs
+    end on several, ``interval`` says ``k of N runs``.
+``attractors``
+    The attractors the runs ended on, with their runs (``P 4, D 4``); empty when one.
 ``contact_ratio``
     ``J R_d max(−θ̈_drive) / (R_b C)``: the closed-form contact boundary is where it passes 1.
+``rattle_ranges``, ``share``, ``drag_Nm``, ``drag_to_quiet_Nm``, ``inertia_to_quiet_kgm2``
+    Every rattle range, the share of the gearbox's sound, the drag, and the drag or inertia
+    that keeps the gear quiet (:mod:`rattle_core.batch.verdict_actions`).
+``target_sone``, ``margin_sone``, ``target_dba``, ``margin_dba``, ``pass``
+    The target's limits, the margins and pass/fail (same module).
 ``lam, j``
     The dimensionless Λ and j of the point.
 """
@@ -52,7 +73,9 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..analysis.loudness import SAMPLE_RATE, loudness
+from ..analysis.levels import TAU_FAST, a_weighted, energy_sum_db, level, P_REF
+from ..analysis.loudness import (SAMPLE_RATE, SKIP_S, band_levels, loudness_of_levels,
+                                 sum_levels)
 from ..analysis.sound import render
 from ..analysis.statistics import estimate
 from ..analysis.vocabulary import regime_letters
@@ -63,18 +86,23 @@ from .chunks import run_chunk, summary_arrays
 from .ensemble import statistics
 from .executor import default_threads, run_chunks
 from .sweep import check_budget
+from . import verdict_actions as _actions
+from .verdict_actions import GEARBOX, add_columns
 
-#: The ``gear`` of the rows that describe all gears together.
-GEARBOX = "gearbox"
 #: Blocks of one run's recorded window behind its 95 % intervals (``ensemble_runs=0``).
 BLOCKS = 5
 #: Independent runs behind the intervals of a point whose motion does not repeat.
 ENSEMBLE_RUNS = 8
 MAX_SPEEDS = 2000
-VERDICT_VERSION = 2
+VERDICT_VERSION = 3
 COLUMNS = ["gear", "rpm", "regime", "impacts_per_s", "intensity", "loudness_sone",
-           "sharpness_acum", "onset_rpm", "impacts_per_s_ci95", "intensity_ci95", "interval",
-           "contact_ratio", "lam", "j"]
+           "sharpness_acum", "spl_dba", "spl_dba_max", "onset_rpm", "rattle_ranges",
+           "impacts_per_s_ci95", "intensity_ci95", "interval", "attractors", "contact_ratio",
+           "drag_Nm", "drag_to_quiet_Nm", "inertia_to_quiet_kgm2", "share", "target_sone",
+           "margin_sone", "target_dba", "margin_dba", "pass", "lam", "j"]
+#: Columns :func:`~rattle_core.batch.verdict_actions.add_columns` adds.
+_ADDED = {"rattle_ranges", "drag_Nm", "drag_to_quiet_Nm", "inertia_to_quiet_kgm2", "share",
+          "target_sone", "margin_sone", "target_dba", "margin_dba", "pass", "onset_rpm"}
 
 
 @dataclasses.dataclass
@@ -109,6 +137,32 @@ class Verdict:
     def onsets(self) -> dict[str, float]:
         """Each gear's onset rpm (NaN: never leaves contact in the sweep)."""
         return {g.name: _onset(self.gear(g.name)) for g in self.gearbox.gears}
+
+    @property
+    def ranges(self) -> dict[str, list[tuple[float, float]]]:
+        """Each gear's rattle ranges ``[(start, end), ...]`` [rpm], edges at the closed-form
+        contact boundary between grid speeds."""
+        return _actions.ranges(self)
+
+    @property
+    def fail_ranges(self) -> dict[str, list[tuple[float, float]]]:
+        """Each gear's and the gearbox's speed ranges that fail the target (grid speeds)."""
+        return _actions.failing(self)
+
+    @property
+    def ranking(self) -> list[str]:
+        """Gear names, the largest contributor to the gearbox's A-weighted energy first."""
+        return _actions.ranking(self)
+
+    def drag_for_target(self, gear: str, **kw: Any) -> float:
+        """The drag [N·m] to add to ``gear`` so that it meets the target at every speed, by
+        bisection on verdicts of that gear (:mod:`rattle_core.batch.verdict_actions`)."""
+        return _actions.drag_for_target(self, gear, verdict, **kw)
+
+    @property
+    def summaries(self) -> dict[str, str]:
+        """Per gear, the drag to add or the inertia to remove that keeps it quiet."""
+        return _actions.summaries(self)
 
 
 def _onset(rows) -> float:
@@ -167,6 +221,33 @@ def _blocks(t: np.ndarray, values: np.ndarray, transient: int, record: int) -> n
     return np.bincount(block, weights=values, minlength=BLOCKS) / np.diff(edges)
 
 
+_HEARD = ("loudness_sone", "sharpness_acum", "spl_dba", "spl_dba_max")
+
+
+def _fast_max_db(p2: np.ndarray) -> float:
+    """``L_AFmax`` [dB] of a summed A-weighted power ``p_A²`` [Pa²] (as
+    :func:`~rattle_core.analysis.levels.level`: fast exponential average, the first
+    ``SKIP_S`` seconds left out)."""
+    from scipy.signal import lfilter
+    alpha = -math.expm1(-1.0 / (SAMPLE_RATE * TAU_FAST))
+    avg = lfilter([alpha], [1.0, alpha - 1.0], p2)
+    skip = min(int(round(SKIP_S * SAMPLE_RATE)), p2.size - 1)
+    peak = float(np.max(avg[skip:]))
+    return 10.0 * math.log10(peak / P_REF ** 2) if peak > 0 else math.nan
+
+
+def own_attractor(attractors, letter: str):
+    """The attractor of ``statistics`` that a point's own non-periodic run is on: the
+    non-periodic one of its regime ``letter`` with most runs, else the non-periodic one with
+    most runs, else the one with most runs (the attractors come largest first)."""
+    for keep in (lambda a: not a.periodic and a.regime == letter, lambda a: not a.periodic,
+                 lambda a: True):
+        found = [a for a in attractors if keep(a)]
+        if found:
+            return found[0]
+    raise ValueError("statistics found no attractor")
+
+
 def _verdict_chunk(gearbox: Gearbox, rpm: np.ndarray, transient: int, record: int,
                    runs: int = ENSEMBLE_RUNS, threads: int | None = None,
                    points: tuple | None = None) -> dict:
@@ -189,15 +270,17 @@ def _verdict_chunk(gearbox: Gearbox, rpm: np.ndarray, transient: int, record: in
     starts = ends - chunk["counts"]
     ng = len(gearbox.gears)
     out = {k: np.zeros(n) for k in ("impacts_per_s", "intensity", "loudness_sone",
-                                     "sharpness_acum", "impacts_per_s_ci95", "intensity_ci95")}
+                                     "sharpness_acum", "spl_dba", "spl_dba_max",
+                                     "impacts_per_s_ci95", "intensity_ci95")}
     box = {k: np.zeros(len(rpm)) for k in out}
 
-    def sounds(s: int) -> list[tuple[float, float]]:
-        """Speed ``s``: each gear's (loudness, sharpness), then the gearbox's."""
-        heard, total, loud = [], None, []
+    def sounds(s: int) -> list[tuple[float, float, float, float]]:
+        """Speed ``s``: each gear's (loudness, sharpness, L_Aeq, L_AFmax), then the gearbox's."""
+        heard, levels, weighted = [], [], []
+        silent = (0.0, 0.0, math.nan, math.nan)
         for i in range(s * ng, (s + 1) * ng):
             if letters[i] == "A" or ends[i] == starts[i]:
-                heard.append((0.0, 0.0))  # permanent contact is silent
+                heard.append(silent)  # permanent contact is silent
                 continue
             ph = phys[i]
             sl = slice(starts[i], ends[i])
@@ -205,16 +288,20 @@ def _verdict_chunk(gearbox: Gearbox, rpm: np.ndarray, transient: int, record: in
             p = gearbox.transfer_pa_per_ns * render(t_s, chunk["impulse"][sl] * ph.impulse_scale,
                                                     gearbox.duration_s, SAMPLE_RATE)
             if not np.any(p):
-                heard.append((0.0, 0.0))
+                heard.append(silent)
                 continue
-            h = loudness(p)
-            heard.append((h.loudness_sone, h.sharpness_acum))
-            total = p if total is None else total + p
-            loud.append(heard[-1])
+            lv = band_levels(p)
+            h = loudness_of_levels(lv, p.size)
+            spl = level(p, SAMPLE_RATE, skip_s=SKIP_S)
+            heard.append((h.loudness_sone, h.sharpness_acum, spl.spl_dba, spl.spl_dba_max))
+            levels.append(lv)
+            weighted.append(a_weighted(p, SAMPLE_RATE) ** 2)
+        loud = [row for row in heard if not math.isnan(row[2])]
         if len(loud) > 1:
-            h = loudness(total)
-            loud = [(h.loudness_sone, h.sharpness_acum)]
-        heard.append(loud[0] if loud else (0.0, 0.0))
+            h = loudness_of_levels(sum_levels(levels), weighted[0].size)
+            loud = [(h.loudness_sone, h.sharpness_acum, energy_sum_db([r[2] for r in loud]),
+                     _fast_max_db(sum(weighted)))]
+        heard.append(loud[0] if loud else silent)
         return heard
 
     threads = default_threads() if threads is None else threads
@@ -223,6 +310,7 @@ def _verdict_chunk(gearbox: Gearbox, rpm: np.ndarray, transient: int, record: in
         pending = ([pool.submit(sounds, s) for s in range(len(rpm))] if pool is not None
                    else None)
         interval = np.full(n, "exact", dtype=object)
+        seen = np.full(n, "", dtype=object)
         for i, ph in enumerate(phys):
             f = ph.frequency_hz
             scale = ph.impulse_scale
@@ -235,7 +323,13 @@ def _verdict_chunk(gearbox: Gearbox, rpm: np.ndarray, transient: int, record: in
                 if runs >= 2:
                     st = statistics(ph.to_dimensionless(), runs=runs, periods=record,
                                     transient=transient)
-                    rate, energy, interval[i] = st.impacts_per_period, st.intensity, f"{runs} runs"
+                    a = own_attractor(st.attractors, letters[i])
+                    rate, energy = a.estimates["impacts_per_period"], a.estimates["intensity"]
+                    if st.coexisting:
+                        interval[i] = f"{len(a.runs)} of {runs} runs"
+                        seen[i] = ", ".join(f"{b.regime} {len(b.runs)}" for b in st.attractors)
+                    else:
+                        interval[i] = f"{runs} runs"
                 else:
                     rate = estimate(_blocks(t, np.ones(t.size), transient, record))
                     energy = estimate(_blocks(t, imp**2, transient, record))
@@ -251,15 +345,17 @@ def _verdict_chunk(gearbox: Gearbox, rpm: np.ndarray, transient: int, record: in
             pool.shutdown(wait=True, cancel_futures=True)
     for s, rows in enumerate(heard):
         for g in range(ng):
-            out["loudness_sone"][s * ng + g], out["sharpness_acum"][s * ng + g] = rows[g]
+            for k, key in enumerate(_HEARD):
+                out[key][s * ng + g] = rows[g][k]
         box["impacts_per_s"][s] = out["impacts_per_s"][s * ng:(s + 1) * ng].sum()
         box["intensity"][s] = out["intensity"][s * ng:(s + 1) * ng].sum()
-        box["loudness_sone"][s], box["sharpness_acum"][s] = rows[ng]
+        for k, key in enumerate(_HEARD):
+            box[key][s] = rows[ng][k]
     ratio = np.empty(n)
     for g in range(ng):
         ratio[g::ng] = gearbox.contact_ratio(g, rpm)
     return {"rpm": np.asarray(rpm), "regime": letters.astype(str), "ratio": ratio,
-            "interval": interval,
+            "interval": interval, "attractors": seen,
             "lam": cols["lam"], "j": cols["j"], "status": cl["status"], **out,
             "box": box}
 
@@ -268,7 +364,7 @@ def verdict(gearbox: Gearbox, rpm: Any, *, transient: int = 200, record: int = 1
             progress: Callable[[int, int], Any] | None = None,
             cancel: Callable[[], bool] | None = None, executor: Any = None,
             chunk_speeds: int | None = None, ensemble_runs: int = ENSEMBLE_RUNS,
-            threads: int | None = None) -> Verdict:
+            threads: int | None = None, target: Any = None) -> Verdict:
     """Which gears rattle, from which speed, and how loud: every gear at every speed, one batch.
 
     Parameters
@@ -294,10 +390,14 @@ def verdict(gearbox: Gearbox, rpm: Any, *, transient: int = 200, record: int = 1
         Threads that render and measure a chunk's sounds, speed by speed (default
         ``NUMBA_NUM_THREADS`` or the number of cores; 1: one after the other).  The verdict is
         the same, row for row, for any number.
+    target : Target, optional
+        The limit curves to compare with, instead of the gearbox's own ``target``.
     """
     import pandas as pd
     if not isinstance(gearbox, Gearbox):
         raise ValueError(f"gearbox must be a Gearbox, got {type(gearbox).__name__}")
+    if target is not None:
+        gearbox = gearbox.replace(target=target)
     progress, cancel = check_progress(progress), check_cancel(cancel)
     r = check_rpm(rpm, gearbox)
     transient = _check_int("transient", transient, 0, 100_000)
@@ -328,20 +428,28 @@ def verdict(gearbox: Gearbox, rpm: Any, *, transient: int = 200, record: int = 1
         frames.append(pd.DataFrame({
             "gear": np.tile(names, m), "rpm": np.repeat(p["rpm"], ng), "regime": p["regime"],
             **{k: p[k] for k in ("impacts_per_s", "intensity", "loudness_sone", "sharpness_acum",
-                                 "impacts_per_s_ci95", "intensity_ci95")},
-            "interval": p["interval"], "contact_ratio": p["ratio"], "lam": p["lam"], "j": p["j"]}))
+                                 "spl_dba", "spl_dba_max", "impacts_per_s_ci95",
+                                 "intensity_ci95")},
+            "interval": p["interval"], "attractors": p["attractors"], "contact_ratio": p["ratio"],
+            "lam": p["lam"], "j": p["j"]}))
         frames.append(pd.DataFrame({"gear": GEARBOX, "rpm": p["rpm"], "regime": "", **p["box"],
                                     "impacts_per_s_ci95": np.nan, "intensity_ci95": np.nan,
-                                    "interval": "",
+                                    "interval": "", "attractors": "",
                                     "contact_ratio": np.nan, "lam": np.nan, "j": np.nan}))
-    table = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame(columns=COLUMNS)
+    table = (pd.concat(frames, ignore_index=True) if frames
+             else pd.DataFrame({c: [] for c in COLUMNS if c not in _ADDED}))
+    for c in ("spl_dba", "spl_dba_max"):
+        # a silent sound's level is −inf; the table holds NaN, as for every missing number
+        table[c] = table[c].astype(float).where(np.isfinite(table[c].astype(float)), np.nan)
     table["onset_rpm"] = np.nan
     for name in names:
         sel = table["gear"] == name
         table.loc[sel, "onset_rpm"] = _onset(table[sel].sort_values("rpm"))
     order = {n: i for i, n in enumerate(names + [GEARBOX])}
     table = table.sort_values(["gear", "rpm"], key=lambda c: c.map(order) if c.name == "gear"
-                              else c).reset_index(drop=True)[COLUMNS]
+                              else c).reset_index(drop=True)
+    add_columns(table, gearbox)
+    table = table[COLUMNS]
     settings = {"transient": transient, "record": record, "ensemble_runs": runs,
                 "solver_version": SOLVER_VERSION, "verdict_version": VERDICT_VERSION}
     return Verdict(gearbox=gearbox, rpm=r, table=table, settings=settings, cancelled=cancelled)

@@ -13,15 +13,33 @@ File format (TOML, read with :mod:`tomllib`)::
     transfer_pa_per_ns = 5      # sound pressure [Pa] per N·s of tooth impulse (default 5)
     duration_s = 0.5            # sound analysed per gear and speed
 
+    [oil]                       # optional; needed by a drag that depends on temperature
+    iso_vg = 68                 # ISO 3448 grade (ν at 40 °C, cSt)
+    nu100_cSt = 9               # ν at 100 °C from the data sheet
+    temp_C = 40                 # the oil temperature a verdict runs at (default 40)
+
+    [target]                    # optional: limit curves over rpm (rattle_core.model.target)
+    rpm = [800, 3000]
+    sone = [10, 20]             # and/or dba = [...]
+
     [[gear]]
     name = "5th idler"
     inertia_kgm2 = 4e-4
     base_radius_m = 0.035
-    drag_torque_Nm = 0.05
+    drag_torque_Nm = 0.05       # a constant drag, or instead one of (rattle_core.model.drag):
+    # drag = {rpm = [800, 4000], torque_Nm = [0.04, 0.08]}
+    # drag = {bush_Nm = 0.02, churn_Nm = 0.03, at_rpm = 2000, at_temp_C = 40}
     backlash_um = 80
     restitution = 0.65          # default 0.65
     speed_ratio = 1.0           # driving gear speed / measured shaft speed (default 1)
     driver_radius_m = 0.035     # default: base_radius_m
+
+A gear gives exactly one of ``drag_torque_Nm`` (a constant) and ``drag`` (a constant, a table
+over rpm and optionally oil temperature, or the oil model); a drag that depends on the oil's
+temperature needs the ``[oil]`` table.  The drag at each point is taken at the point's speed
+and the gearbox's oil temperature (:meth:`Gearbox.drag_Nm`), so Λ and the closed-form contact
+boundary follow both; :meth:`Gearbox.replace` with ``oil_temp_C`` gives the same box at
+another temperature.
 
 The measured shaft's angular fluctuation is ``θ(t) = Σ_k θ_k cos(k ψ − φ_k)``
 (:mod:`rattle_core.model.orders`); a driving gear turning ``speed_ratio`` times as fast
@@ -46,38 +64,32 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import re
 import tomllib
-import unicodedata
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .drag import TEMP_RANGE, Drag, Oil
 from .engine import RPM_RANGE
 from ..measure.orders import MAX_ORDERS, ORDER_RANGE, SAMPLE_RUNUP, OrderMap
 from .params import R_RANGE, check_range
+from .target import Target
+from .toml_checks import (BIDI_CHARACTERS, MAX_TOML_ARRAY, MAX_TOML_DEPTH, MAX_TOML_STRING,
+                          _at, _check_keys, _FileError, _one_line, _subtable, _table,
+                          check_name, check_nesting, check_sizes)
 from .units import (ALPHA_RANGE, DRAG_TORQUE_RANGE, INERTIA_RANGE, RADIUS_RANGE, THETA_RANGE,
                     PhysicalParams)
 
 MAX_GEARS = 32
 MAX_TOML_BYTES = 1_000_000
-#: Deepest nesting of brackets and braces, and of tables, in a gearbox file (the format needs 2).
-MAX_TOML_DEPTH = 8
-#: Most items of one array in a gearbox file.
-MAX_TOML_ARRAY = 256
-#: Longest string or key in a gearbox file [characters].
-MAX_TOML_STRING = 1024
-#: Bidirectional formatting characters: embeddings, overrides, isolates and marks.
-BIDI_CHARACTERS = frozenset("\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069"
-                            "\u200e\u200f\u061c")
 RATIO_RANGE = (0.0, 100.0)            # open at 0
 BACKLASH_UM_RANGE = (0.0, 1.0e5)      # open at 0
 DURATION_RANGE = (0.2, 10.0)          # s
 DEFAULT_DURATION_S = 0.5
 DEFAULT_TRANSFER_PA_PER_NS = 5.0
 TRANSFER_RANGE = (0.0, 1.0e6)         # open at 0
-_GEAR_KEYS = {"name", "inertia_kgm2", "base_radius_m", "drag_torque_Nm", "backlash_um",
+_GEAR_KEYS = {"name", "inertia_kgm2", "base_radius_m", "drag_torque_Nm", "drag", "backlash_um",
               "restitution", "speed_ratio", "driver_radius_m"}
 _EXC_KEYS = {"measurement", "orders", "engine_order", "harmonics", "rpm_step"}
 _SOUND_KEYS = {"transfer_pa_per_ns", "duration_s"}
@@ -85,19 +97,26 @@ _SOUND_KEYS = {"transfer_pa_per_ns", "duration_s"}
 
 @dataclasses.dataclass(frozen=True)
 class Gear:
-    """One loose gear (module docstring: keys and units)."""
+    """One loose gear (module docstring: keys and units).
+
+    Its drag is ``drag`` (:class:`~rattle_core.model.drag.Drag`); a constant one may be given
+    as ``drag_torque_Nm`` instead, which then holds that constant (None for a drag that
+    varies).  Give one of the two, or both when ``drag`` is that same constant.
+    """
 
     name: str
     inertia_kgm2: float
     base_radius_m: float
-    drag_torque_Nm: float
+    drag_torque_Nm: float | None
     backlash_um: float
     restitution: float = 0.65
     speed_ratio: float = 1.0
     driver_radius_m: float | None = None
+    drag: Drag | None = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
+        self._set_drag()
         if not isinstance(self.name, str) or not self.name.strip() or len(self.name) > 80:
             raise ValueError(f"gear name = {self.name!r:.100} must be text of 1 to 80 characters")
         check_name("gear name", self.name)
@@ -105,7 +124,6 @@ class Gear:
         where = f"gear {self.name!r}: "
         for key, rng, open_lo in (("inertia_kgm2", INERTIA_RANGE, True),
                                   ("base_radius_m", RADIUS_RANGE, True),
-                                  ("drag_torque_Nm", DRAG_TORQUE_RANGE, True),
                                   ("backlash_um", BACKLASH_UM_RANGE, True),
                                   ("restitution", R_RANGE, False),
                                   ("speed_ratio", RATIO_RANGE, True)):
@@ -120,14 +138,46 @@ class Gear:
             except ValueError as exc:
                 raise ValueError(where + str(exc)) from None
 
+    def _set_drag(self) -> None:
+        where = f"gear {self.name!r}: "
+        value, drag = self.drag_torque_Nm, self.drag
+        if drag is not None and not isinstance(drag, Drag):
+            raise TypeError(f"{where}drag must be a Drag, got {type(drag).__name__}")
+        if value is not None:
+            try:
+                value = check_range("drag_torque_Nm", value, *DRAG_TORQUE_RANGE, lo_open=True)
+            except ValueError as exc:
+                raise ValueError(where + str(exc)) from None
+        if drag is None and value is None:
+            raise ValueError(f"{where}give drag_torque_Nm or drag")
+        if drag is None:
+            drag = Drag.constant(value)
+        elif value is None:
+            value = drag.value_Nm if drag.kind == "constant" else None
+        elif not (drag.kind == "constant" and drag.value_Nm == value):
+            raise ValueError(f"{where}give drag_torque_Nm or drag, not both")
+        object.__setattr__(self, "drag_torque_Nm", value)
+        object.__setattr__(self, "drag", drag)
+
     @property
     def drive_radius_m(self) -> float:
         """The driving gear's base radius ``R_d`` [m]."""
         return self.base_radius_m if self.driver_radius_m is None else self.driver_radius_m
 
     def replace(self, **changes: Any) -> "Gear":
-        """A checked copy with some fields changed."""
+        """A checked copy with some fields changed; a new ``drag_torque_Nm`` replaces the
+        drag, and a new ``drag`` the constant."""
+        if "drag_torque_Nm" in changes and "drag" not in changes:
+            changes["drag"] = None
+        elif "drag" in changes and "drag_torque_Nm" not in changes:
+            changes["drag_torque_Nm"] = None
         return dataclasses.replace(self, **changes)
+
+    def canonical(self) -> dict:
+        """What the gear is, for cache keys."""
+        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        out["drag"] = self.drag.canonical()
+        return out
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -210,12 +260,20 @@ class Excitation:
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class Gearbox:
-    """Loose gears driven by one measured shaft, and how their rattle is heard."""
+    """Loose gears driven by one measured shaft, and how their rattle is heard.
+
+    ``oil`` is the gearbox's oil (needed by a drag that depends on temperature) and
+    ``oil_temp_C`` the temperature the drags are taken at (None: ``oil.temp_C``); ``target``
+    is the limit curve a verdict compares with (:class:`~rattle_core.model.target.Target`).
+    """
 
     excitation: Excitation
     gears: tuple[Gear, ...]
     transfer_pa_per_ns: float = DEFAULT_TRANSFER_PA_PER_NS
     duration_s: float = DEFAULT_DURATION_S
+    oil: Oil | None = None
+    oil_temp_C: float | None = None
+    target: Target | None = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -230,15 +288,39 @@ class Gearbox:
         set_(self, "transfer_pa_per_ns", check_range("transfer_pa_per_ns", self.transfer_pa_per_ns,
                                                      *TRANSFER_RANGE, lo_open=True))
         set_(self, "duration_s", check_range("duration_s", self.duration_s, *DURATION_RANGE))
+        if self.oil is not None and not isinstance(self.oil, Oil):
+            raise TypeError(f"oil must be an Oil, got {type(self.oil).__name__}")
+        if self.target is not None and not isinstance(self.target, Target):
+            raise TypeError(f"target must be a Target, got {type(self.target).__name__}")
+        temp = self.oil_temp_C
+        if temp is None and self.oil is not None:
+            temp = self.oil.temp_C
+        if temp is not None:
+            temp = check_range("oil_temp_C", temp, *TEMP_RANGE)
+        set_(self, "oil_temp_C", temp)
+        for g in gears:
+            if g.drag.needs_oil and self.oil is None:
+                raise ValueError(f"gear {g.name!r}: its drag depends on the oil temperature; give "
+                                 "the gearbox an [oil] table (iso_vg, nu100_cSt, temp_C)")
+
+    def drag_Nm(self, gear: int, rpm: Any) -> np.ndarray:
+        """Gear ``gear``'s drag torque ``C`` [N·m] at each engine speed ``rpm``, at the box's oil
+        temperature."""
+        g = self.gears[gear]
+        try:
+            return g.drag.torque(rpm, self.oil_temp_C, self.oil)
+        except ValueError as exc:
+            raise ValueError(f"gear {g.name!r}: drag: {exc}") from None
 
     def physical(self, gear: int, rpm: float) -> PhysicalParams:
         """Gear ``gear`` at engine speed ``rpm``, in physical units (displacement amplitudes of
-        its driving gear, at this speed's orders)."""
+        its driving gear, at this speed's orders, and its drag at this speed and temperature)."""
         g = self.gears[gear]
         theta, phase = self.excitation.shaft([rpm])
+        drag = float(self.drag_Nm(gear, [rpm])[0])
         try:
             return PhysicalParams(inertia=g.inertia_kgm2, radius=g.base_radius_m,
-                                  drag_torque=g.drag_torque_Nm, backlash=g.backlash_um * 1e-6,
+                                  drag_torque=drag, backlash=g.backlash_um * 1e-6,
                                   rpm=float(rpm), amplitudes=tuple(theta[0] * g.speed_ratio),
                                   phases_deg=tuple(phase[0]), order=self.excitation.engine_order,
                                   excitation="displacement", r=g.restitution,
@@ -246,9 +328,9 @@ class Gearbox:
         except ValueError as exc:
             raise ValueError(f"gear {g.name!r} at {rpm:g} rpm: {exc}") from None
 
-    def contact_ratio(self, gear: int, rpm: Any, grid: int = 2048) -> np.ndarray:
-        """``J R_d max(−θ̈_drive) / (R_b C)`` at each speed: the gear leaves permanent contact
-        where it exceeds 1 (the closed-form contact boundary, evaluated on a grid of the period)."""
+    def inertia_torque_Nm(self, gear: int, rpm: Any, grid: int = 2048) -> np.ndarray:
+        """``J R_d max(−θ̈_drive) / R_b`` [N·m] at each speed: the drag that just keeps the gear
+        on its driving tooth (the largest inertia torque, evaluated on a grid of the period)."""
         g = self.gears[gear]
         r = np.atleast_1d(np.asarray(rpm, dtype=np.float64))
         theta, phase = self.excitation.shaft(r)
@@ -258,18 +340,27 @@ class Gearbox:
         acc = -np.einsum("rn,rnt->rt", g.speed_ratio * theta * (n[None, :] * omega[:, None]) ** 2,
                          np.cos(n[None, :, None] * t[None, None, :]
                                 - np.deg2rad(phase)[:, :, None]))
-        return g.inertia_kgm2 * g.drive_radius_m * np.max(-acc, axis=1) / (
-            g.base_radius_m * g.drag_torque_Nm)
+        return g.inertia_kgm2 * g.drive_radius_m * np.max(-acc, axis=1) / g.base_radius_m
+
+    def contact_ratio(self, gear: int, rpm: Any, grid: int = 2048) -> np.ndarray:
+        """``J R_d max(−θ̈_drive) / (R_b C)`` at each speed, ``C`` the drag at that speed and the
+        box's temperature: the gear leaves permanent contact where it exceeds 1 (the
+        closed-form contact boundary)."""
+        return self.inertia_torque_Nm(gear, rpm, grid) / self.drag_Nm(gear, rpm)
 
     def replace(self, **changes: Any) -> "Gearbox":
-        """A checked copy with some fields changed."""
+        """A checked copy with some fields changed (``oil_temp_C``: the box at another oil
+        temperature)."""
         return dataclasses.replace(self, **changes)
 
     def canonical(self) -> dict:
         """What the gearbox is, for cache keys."""
         return {"excitation": self.excitation.canonical(),
-                "gears": [dataclasses.asdict(g) for g in self.gears],
-                "transfer_pa_per_ns": self.transfer_pa_per_ns, "duration_s": self.duration_s}
+                "gears": [g.canonical() for g in self.gears],
+                "transfer_pa_per_ns": self.transfer_pa_per_ns, "duration_s": self.duration_s,
+                "oil": None if self.oil is None else self.oil.canonical(),
+                "oil_temp_C": self.oil_temp_C,
+                "target": None if self.target is None else self.target.canonical()}
 
     # ----- files -----------------------------------------------------------------------
     @classmethod
@@ -322,10 +413,15 @@ class Gearbox:
             raise ValueError(f"the TOML nests deeper than the parser can follow; the allowed "
                              f"depth is {MAX_TOML_DEPTH}") from None
         check_sizes(data)
-        unknown = set(data) - {"excitation", "gear", "sound"}
+        unknown = set(data) - {"excitation", "gear", "sound", "oil", "target"}
         if unknown:
             raise _FileError(f"[{sorted(unknown)[0]}]", "unknown table; allowed: excitation, "
-                             "sound, gear")
+                             "sound, oil, target, gear")
+        oil = target = None
+        if "oil" in data:
+            oil = _subtable(Oil.from_table, data["oil"], "[oil]")
+        if "target" in data:
+            target = _subtable(Target.from_table, data["target"], "[target]")
         exc_t = _table(data, "excitation", _EXC_KEYS)
         sound_t = _table(data, "sound", _SOUND_KEYS)
         gear_list = data.get("gear", [])
@@ -346,10 +442,16 @@ class Gearbox:
                 place += f" ({name.strip()!r:.100})"
             with _at(place):
                 _check_keys(g, _GEAR_KEYS, "")
-                missing = {"name", "inertia_kgm2", "base_radius_m", "drag_torque_Nm",
-                           "backlash_um"} - set(g)
+                missing = {"name", "inertia_kgm2", "base_radius_m", "backlash_um"} - set(g)
                 if missing:
                     raise ValueError(f"missing key {sorted(missing)[0]!r}")
+                if ("drag_torque_Nm" in g) == ("drag" in g):
+                    raise ValueError("give exactly one of drag_torque_Nm (a constant [N·m]) "
+                                     "and drag (a constant, a table or the oil model)")
+                g = dict(g)
+                if "drag" in g:
+                    g["drag"] = Drag.from_value(g["drag"], "drag")
+                g.setdefault("drag_torque_Nm", None)
             try:
                 gears.append(Gear(**g))
             except ValueError as exc:
@@ -361,7 +463,7 @@ class Gearbox:
         with _at("[excitation]"):
             excitation = excitation_from_table(exc_t, base_dir, measurement)
         with _at("[[gear]]"):
-            box = cls(excitation=excitation, gears=tuple(gears))
+            box = cls(excitation=excitation, gears=tuple(gears), oil=oil, target=target)
         with _at("[sound]"):
             return box.replace(
                 transfer_pa_per_ns=sound_t.get("transfer_pa_per_ns", DEFAULT_TRANSFER_PA_PER_NS),
@@ -379,130 +481,6 @@ def model_columns(points: list) -> dict:
         if name not in ("r", "v_stick", "noise") or np.ptp(v) > 0:
             out[name] = v
     return out
-
-
-def check_name(what: str, name: str) -> str:
-    """``name`` if it holds no control character (NUL included), line or paragraph separator,
-    or bidirectional formatting character; else ``ValueError`` naming ``what`` and the
-    character (the name is shown escaped, so the message stays one readable line)."""
-    for i, ch in enumerate(name):
-        if ch in BIDI_CHARACTERS or unicodedata.category(ch) in ("Cc", "Zl", "Zp"):
-            kind = ("a bidirectional formatting character" if ch in BIDI_CHARACTERS
-                    else "a control character")
-            raise ValueError(f"{what} {name!r:.100} holds {kind}, U+{ord(ch):04X}, at position "
-                             f"{i + 1}; names may hold only printable text")
-    return name
-
-
-class _FileError(ValueError):
-    """An error at a place in a gearbox file: ``place`` (a key path, a gear) and ``message``."""
-
-    def __init__(self, place: str, message: str) -> None:
-        super().__init__(f"{place}: {message}")
-        self.place = place
-        self.message = message
-
-
-class _at:
-    """A context that turns a ``ValueError`` raised in it into a :class:`_FileError` at ``place``."""
-
-    def __init__(self, place: str) -> None:
-        self.place = place
-
-    def __enter__(self) -> None:
-        return None
-
-    def __exit__(self, kind, exc, tb) -> bool:
-        if isinstance(exc, ValueError) and not isinstance(exc, _FileError):
-            raise _FileError(self.place, str(exc)) from None
-        return False
-
-
-def _one_line(text: str) -> str:
-    return " ".join(text.split())
-
-
-# the tokens that matter for nesting: strings and comments are skipped whole, so that
-# brackets inside them do not count
-_TOKEN = re.compile(r'"""|' + r"'''" + r'''|"|'|#|[\[\]{}]|\n''')
-_STRING_END = {'"""': re.compile(r'(?:[^"\\]|\\.|"(?!""))*"""', re.S),
-               "'''": re.compile(r"(?:[^']|'(?!''))*" + r"'''", re.S),
-               '"': re.compile(r'(?:[^"\\\n]|\\.)*(?:"|$)', re.M),
-               "'": re.compile(r"[^'\n]*(?:'|$)", re.M)}
-
-
-def check_nesting(text: str, limit: int = MAX_TOML_DEPTH) -> None:
-    """Refuse TOML text whose arrays and inline tables nest deeper than ``limit``, before it
-    is parsed (the parser recurses once per level): ``ValueError`` naming the line."""
-    depth = 0
-    line = 1
-    pos = 0
-    while True:
-        m = _TOKEN.search(text, pos)
-        if m is None:
-            return
-        tok = m.group()
-        pos = m.end()
-        if tok == "\n":
-            line += 1
-        elif tok == "#":
-            nl = text.find("\n", pos)
-            pos = len(text) if nl < 0 else nl
-        elif tok in _STRING_END:
-            end = _STRING_END[tok].match(text, pos)
-            stop = end.end() if end else len(text)
-            line += text.count("\n", pos, stop)
-            pos = stop
-        elif tok in "[{":
-            depth += 1
-            if depth > limit:
-                raise _FileError(f"line {line}", f"arrays and inline tables nest more than "
-                                 f"{limit} deep; the allowed depth is {limit}")
-        else:
-            depth = max(0, depth - 1)
-
-
-def check_sizes(data: dict) -> None:
-    """Refuse parsed TOML whose tables nest deeper than :data:`MAX_TOML_DEPTH`, whose arrays
-    hold more than :data:`MAX_TOML_ARRAY` items, or whose strings or keys are longer than
-    :data:`MAX_TOML_STRING` characters: ``ValueError`` naming the key path."""
-    todo: list[tuple[str, Any, int]] = [("", data, 0)]
-    while todo:
-        path, value, depth = todo.pop()
-        where = path or "the top level"
-        if depth > MAX_TOML_DEPTH:
-            raise _FileError(where, f"tables and arrays nest more than {MAX_TOML_DEPTH} deep; "
-                             f"the allowed depth is {MAX_TOML_DEPTH}")
-        if isinstance(value, dict):
-            for key, item in value.items():
-                if len(key) > MAX_TOML_STRING:
-                    raise _FileError(where, f"a key has {len(key)} characters; the allowed "
-                                     f"length is up to {MAX_TOML_STRING}")
-                todo.append((f"{path}.{key}" if path else key, item, depth + 1))
-        elif isinstance(value, list):
-            if len(value) > MAX_TOML_ARRAY:
-                raise _FileError(where, f"the array has {len(value)} items; the allowed size is "
-                                 f"up to {MAX_TOML_ARRAY}")
-            todo.extend((f"{path}[{i}]", item, depth + 1) for i, item in enumerate(value))
-        elif isinstance(value, str) and len(value) > MAX_TOML_STRING:
-            raise _FileError(where, f"the string has {len(value)} characters; the allowed "
-                             f"length is up to {MAX_TOML_STRING}")
-
-
-def _check_keys(t: dict, allowed: set[str], where: str) -> None:
-    extra = set(t) - allowed
-    if extra:
-        raise ValueError(f"{where + ': ' if where else ''}unknown key {sorted(extra)[0]!r}; "
-                         f"allowed: {', '.join(sorted(allowed))}")
-
-
-def _table(data: dict, name: str, allowed: set[str]) -> dict:
-    t = data.get(name, {})
-    if not isinstance(t, dict):
-        raise _FileError(f"[{name}]", "must be a table")
-    with _at(f"[{name}]"):
-        _check_keys(t, allowed, "")
-    return t
 
 
 def excitation_from_table(t: dict, base_dir: str | Path | None,

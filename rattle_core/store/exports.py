@@ -5,6 +5,11 @@ y_plus_j, contact``), per swept value or per map point.  Flanks and contact stat
 as in :mod:`rattle_core.analysis.vocabulary` (``active``, ``reverse``, ``none``).  In physical
 units the rows gain SI columns (``t_s``, ``impulse_Ns``, ``x_um``, ...).  Parquet files carry
 the parameters and settings as JSON in their schema metadata (key ``rattle``).
+
+A CSV is opened in spreadsheets, which run a cell that starts with ``=``, ``+``, ``-`` or ``@``
+(or a tab or carriage return before one) as a formula.  Text cells such as gear names come from
+users, so every text cell that starts with one of these is written with a leading ``'``
+(:func:`neutralise_formulas`); numbers are written as they are.
 """
 from __future__ import annotations
 
@@ -26,6 +31,31 @@ if TYPE_CHECKING:
 
 #: File types a table may be written as.
 TABLE_SUFFIXES = (".csv", ".parquet")
+#: First characters that make a spreadsheet read a text cell as a formula.
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
+
+
+def neutralise_formulas(df: "pd.DataFrame") -> "pd.DataFrame":
+    """``df`` with every text cell that a spreadsheet would run as a formula prefixed by ``'``
+    (module docstring); columns of numbers, and the column names' order, are untouched."""
+    out = df.copy()
+    out.columns = [_neutral(c) if isinstance(c, str) else c for c in df.columns]
+    for name in out.columns:
+        col = out[name]
+        if col.dtype == object or str(col.dtype) in ("string", "str", "category"):
+            out[name] = col.map(_neutral, na_action="ignore").astype(object)
+    return out
+
+
+def _neutral(value: Any) -> Any:
+    if isinstance(value, str) and value.startswith(FORMULA_STARTS):
+        return "'" + value
+    return value
+
+
+def csv_text(df: "pd.DataFrame") -> str:
+    """``df`` as CSV text, formulas neutralised (:func:`neutralise_formulas`)."""
+    return neutralise_formulas(df).to_csv(index=False)
 
 
 def write_table(df: "pd.DataFrame", path: Path | str, meta: dict | None = None) -> None:
@@ -37,7 +67,7 @@ def write_table(df: "pd.DataFrame", path: Path | str, meta: dict | None = None) 
     os.close(fd)
     try:
         if path.suffix.lower() == ".csv":
-            df.to_csv(tmp, index=False)
+            neutralise_formulas(df).to_csv(tmp, index=False)
         else:
             import pyarrow as pa
             import pyarrow.parquet as pq

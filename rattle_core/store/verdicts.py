@@ -24,7 +24,8 @@ from ..solver.trajectory import SOLVER_VERSION
 from .cache import cached
 from .files import atomic_savez
 
-_TEXT = {"gear": "U80", "regime": "U8", "interval": "U16"}
+_TEXT = {"gear", "regime", "interval", "attractors", "rattle_ranges"}
+_BOOL = {"pass"}
 VERDICT_FIELDS = ("meta", "rpm") + tuple(f"c_{c}" for c in COLUMNS)
 
 
@@ -42,7 +43,8 @@ def save_verdict(path: Path | str, result: Verdict, key: str | None = None,
     meta = {"settings": result.settings, "key": key, "request": request}
     arrays = {"meta": np.array(json.dumps(meta)), "rpm": np.asarray(result.rpm, dtype=np.float64)}
     for c in COLUMNS:
-        arrays[f"c_{c}"] = result.table[c].to_numpy().astype(_TEXT.get(c, np.float64))
+        kind = str if c in _TEXT else bool if c in _BOOL else np.float64
+        arrays[f"c_{c}"] = result.table[c].to_numpy().astype(kind)
     atomic_savez(path, arrays)
 
 
@@ -52,7 +54,8 @@ def load_verdict(source) -> tuple[Verdict, dict]:
     import pandas as pd
     with np.load(source, allow_pickle=False) as z:
         meta = json.loads(str(z["meta"]))
-        table = pd.DataFrame({c: z[f"c_{c}"].astype(object if c in _TEXT else np.float64)
+        table = pd.DataFrame({c: z[f"c_{c}"].astype(object if c in _TEXT else
+                                                    bool if c in _BOOL else np.float64)
                               for c in COLUMNS})
         rpm = z["rpm"]
     return Verdict(gearbox=None, rpm=rpm, table=table, settings=meta["settings"]), meta
@@ -62,10 +65,14 @@ def cached_verdict(gearbox: Gearbox, rpm: Any, *, transient: int = 200, record: 
                    progress: Callable[[int, int], Any] | None = None,
                    cancel: Callable[[], bool] | None = None, executor: Any = None,
                    chunk_speeds: int | None = None, directory: Path | str | None = None,
-                   use_cache: bool = True, ensemble_runs: int = ENSEMBLE_RUNS) -> Verdict:
+                   use_cache: bool = True, ensemble_runs: int = ENSEMBLE_RUNS,
+                   target: Any = None) -> Verdict:
     """:func:`~rattle_core.batch.gearbox.verdict`, served from the disk cache when the same
     gearbox ran at the same speeds before (``result.from_cache``); a cancelled one is not
-    stored.  Arguments as for the verdict; ``use_cache=False`` computes and stores nothing."""
+    stored.  Arguments as for the verdict; ``use_cache=False`` computes and stores nothing.
+    The key covers the target (``target``, or the gearbox's) and the oil temperature."""
+    if target is not None:
+        gearbox = gearbox.replace(target=target)
     r = check_rpm(rpm, gearbox)
 
     def compute() -> Verdict:

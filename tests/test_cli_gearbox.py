@@ -1,0 +1,136 @@
+"""``rattle gearbox`` beyond one design: two designs side by side (``--compare``), a target from
+the command line, the round default speeds, and the options it refuses in one line."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rattle_cli.commands.gearbox import GRID_STEPS, round_grid
+from rattle_cli.main import main
+from rattle_core.model.gearbox import Gearbox
+
+pytestmark = pytest.mark.timeout(600)
+
+TOML = """
+[excitation]
+measurement = "sample"
+engine_order = 2
+harmonics = 3
+
+[sound]
+duration_s = 0.2
+
+[[gear]]
+name = "5th idler"
+inertia_kgm2 = 4e-4
+base_radius_m = 0.035
+drag_torque_Nm = 0.05
+backlash_um = 80
+
+[[gear]]
+name = "reverse idler"
+inertia_kgm2 = 2.5e-4
+base_radius_m = 0.03
+drag_torque_Nm = 0.03
+backlash_um = 120
+speed_ratio = 0.8
+"""
+FAST = ["--transient", "60", "--record", "30", "--runs", "0"]
+
+
+@pytest.fixture()
+def files(tmp_path, monkeypatch):
+    monkeypatch.setenv("RATTLE_CACHE_DIR", str(tmp_path / "cache"))
+    (tmp_path / "a.toml").write_text(TOML)
+    (tmp_path / "b.toml").write_text(TOML.replace("drag_torque_Nm = 0.05", "drag_torque_Nm = 0.09"))
+    return tmp_path
+
+
+def test_compare_two_designs(files, capsys):
+    """``--compare``: both designs at the same speeds in one CSV (a ``design`` column named by
+    file), the B - A rows equal B's loudness minus A's row by row, the target's margin is its
+    limit minus the loudness; more drag in B never rattles earlier; both are printed side by side."""
+    out = files / "v.csv"
+    code = main(["gearbox", str(files / "a.toml"), "--compare", str(files / "b.toml"),
+                 "--rpm", "1000:3000:5", "--out", str(out), "--png",
+                 "--target", "1000:0.5,3000:2 sone", *FAST])
+    assert code == 0, capsys.readouterr().err
+    printed = capsys.readouterr().out
+    assert "A = a.toml, B = b.toml" in printed
+    assert "5th idler: A rattles from" in printed and "| B " in printed
+    df = pd.read_csv(out)
+    assert set(df["design"]) == {"a.toml", "b.toml", "B - A"}
+    a, b, d = (df[df["design"] == k].set_index(["gear", "rpm"]) for k in ("a.toml", "b.toml", "B - A"))
+    assert len(a) == len(b) == len(d) == 3 * 5
+    np.testing.assert_allclose(d["loudness_sone"], (b["loudness_sone"] - a["loudness_sone"]).loc[d.index])
+    limit = np.interp(a.index.get_level_values("rpm"), [1000, 3000], [0.5, 2.0])
+    np.testing.assert_allclose(a["target_sone"], limit)
+    np.testing.assert_allclose(a["margin_sone"], limit - a["loudness_sone"])
+    assert (a["pass"].astype(str) == (a["margin_sone"] >= 0).astype(str)).all()
+    on_a = a.loc["5th idler", "onset_rpm"].iloc[0]
+    on_b = b.loc["5th idler", "onset_rpm"].iloc[0]
+    assert not (on_b < on_a)
+    assert (files / "v.png").stat().st_size > 1000
+
+
+def test_default_speeds_are_round(files):
+    """Without --rpm the speeds are every 50, 100, ... rpm inside the measured range: round
+    numbers, evenly spaced, and no more than the grid allows."""
+    box = Gearbox.from_toml(files / "a.toml")
+    rpm = round_grid(box)
+    lo, hi = box.excitation.rpm_range
+    step = rpm[1] - rpm[0]
+    assert step in GRID_STEPS and np.all(np.diff(rpm) == step)
+    assert np.all(rpm % step == 0) and lo <= rpm[0] < lo + step and hi - step < rpm[-1] <= hi
+
+
+@pytest.mark.parametrize("extra, words", [
+    (["--oil-temp", "200"], ["--oil-temp '200'", "[-40, 150]"]),
+    (["--oil-temp", "-41"], ["[-40, 150]"]),
+    (["--oil-temps=-60:20:3"], ["--oil-temps", "-40"]),
+    (["--target", "1000:10,3000 sone"], ["--target", "'3000' is not RPM:VALUE"]),
+    (["--target", "1000:10,3000:20 phon"], ["--target", "sone", "dba"]),
+    (["--target", "3000:10,1000:20 sone"], ["--target", "increase"]),
+    (["--rpm", "1000:3000:3", "--compare", "{tmp}/missing.toml"], ["missing.toml"]),
+])
+def test_bad_options_exit_2_with_one_line(files, capsys, extra, words):
+    """A temperature outside −40…150 °C, a target that does not read, and a missing second
+    design are refused before any work: exit 2, one line that names the option and the range."""
+    extra = [e.replace("{tmp}", str(files)) for e in extra]
+    code = main(["gearbox", str(files / "a.toml"), "--out", str(files / "v.csv"), *extra])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1, err
+    for w in words:
+        assert w in err, (w, err)
+    assert not (files / "v.csv").exists()
+
+
+def test_oil_temps_write_the_rpm_temperature_map(files, capsys, monkeypatch):
+    """``--oil-temps A:B:N`` runs the design at N temperatures: the CSV holds every row once per
+    temperature with its ``oil_temp_C``, and the PNG map is written.  (The gearbox here takes
+    the temperature through a stand-in whose drag halves from cold to hot, so each temperature
+    is a different verdict.)"""
+    original = Gearbox.replace
+
+    def replace(self, **changes):
+        t = changes.pop("oil_temp_C", None)
+        box = original(self, **changes)
+        if t is not None:
+            box = original(box, gears=tuple(g.replace(drag_torque_Nm=g.drag_torque_Nm * (1 - t / 200))
+                                             for g in box.gears))
+        return box
+    monkeypatch.setattr(Gearbox, "replace", replace)
+    out = files / "t.csv"
+    code = main(["gearbox", str(files / "a.toml"), "--rpm", "1000:3000:3", "--oil-temps=-20:100:3",
+                 "--out", str(out), "--png", *FAST])
+    assert code == 0, capsys.readouterr().err
+    df = pd.read_csv(out)
+    assert df.columns[0] == "oil_temp_C" and sorted(set(df["oil_temp_C"])) == [-20.0, 40.0, 100.0]
+    assert len(df) == 3 * 3 * 3
+    hot = df[(df["oil_temp_C"] == 100.0) & (df["gear"] == "5th idler")]["onset_rpm"].iloc[0]
+    cold = df[(df["oil_temp_C"] == -20.0) & (df["gear"] == "5th idler")]["onset_rpm"].iloc[0]
+    assert math.isnan(cold) or hot <= cold  # less drag when hot: it leaves contact no later
+    assert (files / "t.png").stat().st_size > 1000
