@@ -73,6 +73,6 @@ def test_report_carries_hash_legend_units_and_escapes(verdicts):
 
 def test_sample_identity_is_the_shipped_file():
     """Without an upload the hash is that of the shipped sample run-up's bytes."""
-    from rattle_core.model.orders import SAMPLE_RUNUP
+    from rattle_core.measure.orders import SAMPLE_RUNUP
     with open(SAMPLE_RUNUP, "rb") as f:
         assert work.file_identity(None)["sha256"] == hashlib.sha256(f.read()).hexdigest()

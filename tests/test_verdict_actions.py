@@ -13,7 +13,7 @@ from rattle_core.analysis.sound import render
 from rattle_core.batch.gearbox import COLUMNS, GEARBOX, verdict
 from rattle_core.batch.temperatures import verdict_over_temperatures
 from rattle_core.model.gearbox import Gearbox
-from rattle_core.model.orders import SAMPLE_RUNUP, OrderMap
+from rattle_core.measure.orders import SAMPLE_RUNUP, OrderMap
 from rattle_core.model.target import Target
 from rattle_core.store.verdicts import load_verdict, save_verdict
 
