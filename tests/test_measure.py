@@ -361,3 +361,23 @@ def test_cli_orders_reads_a_semicolon_file_and_draws_the_campbell_diagram(tmp_pa
     assert "semicolon-separated, decimal mark ','" in r.stdout
     assert "analysed 1 to" in r.stdout
     assert (tmp_path / "c.png").stat().st_size > 5000
+
+
+def test_a_gearbox_file_reads_its_measurement_with_the_excitation_keys(tmp_path, clean):
+    """A GEARBOX.toml's [excitation] passes speed_column, speed_unit and from_s to the reading:
+    an unrecognised rad/s column is read to the clean orders; a bad unit is refused naming the
+    key."""
+    from rattle_core.model.gearbox import Gearbox
+    t = uniform()
+    write(tmp_path / "m.csv", ["time_s", "w"], [t, speed_at(t) * math.pi / 30], delim=";",
+          decimal=",")
+    gear = ('[[gear]]\nname = "g"\ninertia_kgm2 = 4e-4\nbase_radius_m = 0.035\n'
+            'drag_torque_Nm = 0.05\nbacklash_um = 80\n')
+    exc = ('[excitation]\nmeasurement = "m.csv"\nengine_order = 2\nharmonics = 3\nrpm_step = 200\n'
+           'speed_column = "w"\nspeed_unit = "{unit}"\n')
+    (tmp_path / "g.toml").write_text(exc.format(unit="rad/s") + gear)
+    omap = Gearbox.from_toml(tmp_path / "g.toml").excitation.order_map
+    assert_same_orders(omap, clean)
+    (tmp_path / "g.toml").write_text(exc.format(unit="rpms") + gear)
+    with pytest.raises(ValueError, match=r"speed_unit = 'rpms' is not a known unit"):
+        Gearbox.from_toml(tmp_path / "g.toml")

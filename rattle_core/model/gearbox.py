@@ -42,7 +42,7 @@ boundary follow both; :meth:`Gearbox.replace` with ``oil_temp_C`` gives the same
 another temperature.
 
 The measured shaft's angular fluctuation is ``θ(t) = Σ_k θ_k cos(k ψ − φ_k)``
-(:mod:`rattle_core.model.orders`); a driving gear turning ``speed_ratio`` times as fast
+(:mod:`rattle_core.measure.orders`); a driving gear turning ``speed_ratio`` times as fast
 fluctuates ``speed_ratio`` times as much, at the same engine orders.  The model's harmonic
 ``n = 1..harmonics`` is engine order ``n × engine_order``, with ``ω = engine_order × 2π rpm / 60``
 (``rpm`` the measured shaft's speed).  Constant ``orders`` give ``accel_rad_s2`` (held over
@@ -72,6 +72,7 @@ import numpy as np
 
 from .drag import TEMP_RANGE, Drag, Oil
 from .engine import RPM_RANGE
+from ..measure.measurement import OPTIONS as MEASUREMENT_OPTIONS, measurement_options
 from ..measure.orders import MAX_ORDERS, ORDER_RANGE, SAMPLE_RUNUP, OrderMap
 from .params import R_RANGE, check_range
 from .target import Target
@@ -91,7 +92,7 @@ DEFAULT_TRANSFER_PA_PER_NS = 5.0
 TRANSFER_RANGE = (0.0, 1.0e6)         # open at 0
 _GEAR_KEYS = {"name", "inertia_kgm2", "base_radius_m", "drag_torque_Nm", "drag", "backlash_um",
               "restitution", "speed_ratio", "driver_radius_m"}
-_EXC_KEYS = {"measurement", "orders", "engine_order", "harmonics", "rpm_step"}
+_EXC_KEYS = {"measurement", "orders", "engine_order", "harmonics", "rpm_step", *MEASUREMENT_OPTIONS}
 _SOUND_KEYS = {"transfer_pa_per_ns", "duration_s"}
 
 
@@ -543,7 +544,7 @@ def excitation_from_table(t: dict, base_dir: str | Path | None,
     else:
         path = Path(base_dir) / name
     with _at(f"[excitation] measurement = {name!r:.200}"):
-        order_map = OrderMap.read(path, orders, step)
+        order_map = OrderMap.read(path, orders, step, **measurement_options(t))
     with _at("[excitation]"):
         return Excitation(engine_order=engine_order, harmonics=harmonics, order_map=order_map)
 
