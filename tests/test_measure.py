@@ -208,6 +208,8 @@ def test_an_order_is_analysed_where_the_sampling_resolves_it():
     assert ok[0] and not ok[-1] and omap.rpm[ok].max() < 1000 < omap.rpm[~ok].min() + 100
     np.testing.assert_allclose(omap.amplitude_rad[ok, 1], 0.001, rtol=0.02)
     assert len(omap.notices) == 1 and omap.notices[0].startswith("order 6 is analysed from")
+    back = OrderMap.from_table(omap.to_frame())
+    np.testing.assert_array_equal(np.isnan(back.amplitude_rad), np.isnan(omap.amplitude_rad))
     lo, hi = omap.covered(6)
     omap.check_covers([2, 6], [lo + 1, hi - 1])
     with pytest.raises(ValueError, match=rf"order 6 is needed at 1300 rpm, but the measurement "

@@ -283,7 +283,9 @@ class OrderMap:
                 raise ValueError(f"an order table needs the columns {', '.join(TABLE_COLUMNS)}; "
                                  f"{c!r} is missing")
             cols[c] = np.asarray(table[c], dtype=np.float64).ravel()
-            if not np.all(np.isfinite(cols[c])):
+            # an order the sampling did not resolve at some speeds is NaN there
+            values = cols[c] if c in ("rpm", "order") else cols[c][~np.isnan(cols[c])]
+            if not np.all(np.isfinite(values)):
                 raise ValueError(f"order table column {c!r} holds a value that is not a finite number")
         rpm = np.unique(cols["rpm"])
         orders = np.asarray(check_orders(np.unique(cols["order"])))
