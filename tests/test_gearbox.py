@@ -243,7 +243,6 @@ def test_verdict_cancels_between_chunks(box):
      r"gearbox text, \[\[gear\]\] number 1 \('5th idler'\): unknown key 'stiffness'"),
     (TOML.replace('measurement = "sample"', 'measurement = "/etc/passwd"'),
      r"a gearbox given as text names no file"),
-    (TOML.replace("harmonics = 3", "harmonics = 9"), r"samples per cycle of order 18"),
     (TOML + '\n[[gear]]\nname = "5th idler"\ninertia_kgm2 = 1e-4\nbase_radius_m = 0.03\n'
             'drag_torque_Nm = 0.02\nbacklash_um = 50\n', r"'5th idler' appears twice"),
     ("[excitation\n", r"gearbox text: TOML syntax: .*\(at line 1, column 12\)"),

@@ -383,3 +383,20 @@ def test_a_gearbox_file_reads_its_measurement_with_the_excitation_keys(tmp_path,
     (tmp_path / "g.toml").write_text(exc.format(unit="rpms") + gear)
     with pytest.raises(ValueError, match=r"speed_unit = 'rpms' is not a known unit"):
         Gearbox.from_toml(tmp_path / "g.toml")
+
+
+def test_a_verdict_needing_an_order_beyond_the_sampling_is_refused_naming_its_range():
+    """The sample run-up (6410 Hz) resolves order 10 only up to 1923 rpm, order 18 up to 1068: a
+    gearbox with 9 harmonics of order 2 is built, its gear is driven at 1000 rpm, and at 2000
+    rpm it is refused naming order 10 and the speeds it was analysed at (bins to 1800 rpm)."""
+    from rattle_core.model.gearbox import Gearbox
+    text = ('[excitation]\nmeasurement = "sample"\nengine_order = 2\nharmonics = 9\n'
+            '[[gear]]\nname = "g"\ninertia_kgm2 = 4e-4\nbase_radius_m = 0.035\n'
+            'drag_torque_Nm = 0.05\nbacklash_um = 80\n')
+    box = Gearbox.from_text(text)
+    assert any(n.startswith("order 18 is analysed from") for n in box.excitation.order_map.notices)
+    box.physical(0, 1000.0)
+    with pytest.raises(ValueError, match=r"order 10 is needed at 2000 rpm, but the measurement "
+                                         r"\(runup_4cyl_synthetic.csv.gz\) resolves it at 975 "
+                                         r"to 1800 rpm only"):
+        box.physical(0, 2000.0)

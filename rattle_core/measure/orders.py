@@ -2,10 +2,12 @@
 
 Input
     The instantaneous speed of the measured shaft, ``speed_rpm`` against ``time_s``, steady or
-    during a run-up or run-down, sampled at least :data:`MIN_SAMPLES_PER_CYCLE` times per cycle
-    of the highest order analysed.  A CSV file has a header with the columns ``time_s`` and
-    ``speed_rpm`` (others are ignored, lines starting with ``#`` are comments); ``.csv.gz`` is
-    read too.
+    during a run-up or run-down; a file is read by :mod:`rattle_core.measure.measurement`
+    (layout sniffed, columns recognised, pulses, a time window).  Irregular steps are resampled
+    to a uniform grid (:mod:`rattle_core.measure.sampling`).  An order is reported in the rpm
+    bins where the median step gives at least :data:`MIN_SAMPLES_PER_CYCLE` samples per cycle
+    of it at the bin's top speed, and is NaN in the others (:attr:`OrderMap.notices` says where);
+    :meth:`OrderMap.at` and :meth:`OrderMap.check_covers` refuse a speed where it is NaN.
 Phase convention
     The shaft angle is ``ψ(t) + θ(t)``: ``ψ`` is the mean shaft angle [rad], zero at the file's
     first sample, and the fluctuation is
@@ -46,7 +48,7 @@ Refusals
     A file is read whole and checked before anything is computed; a bad one raises
     ``ValueError`` naming the line at fault: missing columns, text or NaN where a number
     belongs, time not increasing, a gap (a step over :data:`GAP_FACTOR` times the median step),
-    too few samples per cycle of the highest order, fewer than :data:`MIN_REVOLUTIONS`
+    too few samples per cycle of every order asked for, fewer than :data:`MIN_REVOLUTIONS`
     revolutions in a bin between others, more than :data:`MAX_ROWS` rows or
     :data:`MAX_BYTES` bytes.  Bins at either end of the speed range with fewer revolutions are
     left out (a run-up starts and ends part-way through a bin).
@@ -169,7 +171,7 @@ class OrderMap:
         Parameters
         ----------
         time_s : array_like
-            Sample times [s], strictly increasing, without gaps.
+            Sample times [s], strictly increasing, without gaps; irregular steps are resampled.
         speed_rpm : array_like
             Instantaneous shaft speed [rev/min], each in (0, 1e5].
         orders : sequence of float or str
