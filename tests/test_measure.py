@@ -400,3 +400,14 @@ def test_a_verdict_needing_an_order_beyond_the_sampling_is_refused_naming_its_ra
                                          r"\(runup_4cyl_synthetic.csv.gz\) resolves it at 975 "
                                          r"to 1800 rpm only"):
         box.physical(0, 2000.0)
+
+
+def test_the_shipped_daq_export_reads_to_its_order():
+    """tests/data's DAQ export (BOM, comment, `;`, decimal commas, a units row, German names)
+    is read as such and gives order 2's 4 mrad and 30° it was written with."""
+    omap = OrderMap.from_csv(DATA / "daq_semicolon_decimal_comma.csv", (2,), 100.0)
+    d = omap.detected
+    assert (d.delimiter, d.decimal, d.units_row, d.speed_unit) == (";", ",", True, "rpm")
+    assert (d.time_column, d.speed_column) == ("Zeit", "Drehzahl")
+    assert omap.amplitude_rad[0, 0] == pytest.approx(0.004, rel=0.01)
+    assert omap.phase_deg[0, 0] == pytest.approx(30.0, abs=1.0)
