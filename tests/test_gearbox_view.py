@@ -49,7 +49,7 @@ def test_sample_verdict_variant_and_exports(view):
     assert set(side["pass"]) <= {"pass", "fail"} and "&lt;script&gt;" in view.side_by_side.object
     from app.ui.gearbox_plots import metric_plot
     import holoviews as hv
-    plot = metric_plot(view.base, view.variant, "loudness_sone", "loudness", target=view.target)
+    plot = metric_plot(view.base, view.variant, "loudness_sone", "loudness")
     labels = [el.label for el in plot]
     assert "target" in labels and ("fail" not in set(a["pass"].astype(str)) or any(
         isinstance(el, hv.VSpan) for el in plot))

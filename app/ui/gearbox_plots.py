@@ -82,8 +82,8 @@ def regime_plot(base: Any, variant: Any) -> hv.Overlay:
 TARGET_KEYS = {"loudness_sone": "sone", "spl_dba": "dba"}
 
 
-def metric_plot(base: Any, variant: Any, column: str, label: str, logy: bool = False,
-                target: Any = None) -> hv.Overlay:
+def metric_plot(base: Any, variant: Any, column: str, label: str, logy: bool = False
+                ) -> hv.Overlay:
     """``column`` against rpm for each gear and the gearbox; the variant dashed; the target's
     limit (red) with the baseline's failing speeds shaded, and the variant's hatched."""
     curves = []

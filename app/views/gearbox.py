@@ -151,7 +151,7 @@ class GearboxView(pn.viewable.Viewer):
                     "intensity": lambda: metric_plot(self.base, self.variant, "intensity",
                                                      "intensity Σ I²/s [N²·s]", logy=True),
                     "loudness": lambda: metric_plot(self.base, self.variant, "loudness_sone",
-                                                    "loudness N5 [sone]", target=self.target)}[key]
+                                                    "loudness N5 [sone]")}[key]
             return hv.DynamicMap(lambda revision: draw(), streams=[hv.streams.Params(self, ["revision"])])
 
     def _redraw(self, *keys: str) -> None:
@@ -422,7 +422,7 @@ class GearboxView(pn.viewable.Viewer):
         """The measurement's name and hash, and the tab's settings, for the report."""
         s = self.settings
         out = dict(self.identity)
-        out["settings"] = {"target": s.target or "the file's", "what-if": self.variant_text or s.variant}
+        out["settings"] = {"target": s.target or "none", "what-if": self.variant_text or s.variant}
         if s.oil_temp is not None:
             out["settings"]["oil temperature [°C]"] = s.oil_temp
         return out

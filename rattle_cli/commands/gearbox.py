@@ -118,7 +118,8 @@ def add_parser(sub) -> None:
                         "(default: the file's)")
     p.add_argument("--oil-temps", dest="oil_temps", type=oil_temps, metavar="A:B:N",
                    help="a verdict at N oil temperatures from A to B °C: the CSV gains oil_temp_C, "
-                        "the PNG is the map of regime, loudness and pass over rpm × temperature")
+                        "the PNG is the map of regime, loudness and pass over rpm × temperature "
+                        "(computed afresh, not cached)")
     p.add_argument("--compare", metavar="B.toml",
                    help="a second design run at the same speeds and settings: the CSV gets a "
                         "design column and B - A rows, the PNG draws B dashed")
