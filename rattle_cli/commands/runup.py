@@ -1,4 +1,5 @@
-"""``rattle runup``: every gear of a gearbox driven through a run-up, impact by impact."""
+"""``rattle runup``: every gear of a gearbox driven through a run-up, impact by impact, heard
+and measured, and set against the quasi-steady verdict."""
 from __future__ import annotations
 
 import argparse
@@ -24,23 +25,36 @@ def add_parser(sub) -> None:
     p.add_argument("--out", required=True, metavar="RUNUP.csv",
                    help="one row per impact: t_s, rpm, gear, flank, impulse_Ns")
     p.add_argument("--wav", metavar="RUNUP.wav",
-                   help="the whole gearbox's rattle over the run, 48 kHz, normalised to 0.99")
+                   help="the whole gearbox's rattle over the run, 48 kHz, normalised to 0.99 "
+                        "(the Pa per full scale is printed)")
+    p.add_argument("--png", nargs="?", const="", metavar="FILE.png",
+                   help="also draw N(t) and dB(A)(t) against rpm with the verdict's loudness and "
+                        "the onsets, and the sound's spectrogram with the engine orders "
+                        "(default name: OUT with .png)")
+    p.add_argument("--compare-verdict", dest="compare", action="store_true",
+                   help="set the run against the quasi-steady verdict on a 50-rpm grid and "
+                        "against the run-down over the same speeds: onsets and loudness")
 
 
 def run(args: argparse.Namespace) -> int:
     """Replay every gear of GEARBOX.toml over a linear run-up (or run-down) of the measured
     shaft, exactly (docs/model.md, "A run-up in physical time"): every impact with its time,
-    speed, gear, flank and impulse, and each gear's first impact."""
+    speed, gear, flank and impulse, each gear's rattle intervals, the gearbox's sound, its
+    loudness and level over the run, and (on request) the quasi-steady verdict beside it."""
     import numpy as np
-    import pandas as pd
 
-    from rattle_core.analysis.sound import normalize, render, write_wav
+    from rattle_core.analysis.sound import normalize, write_wav
+    from rattle_core.batch.runup import compare, gearbox_runup, verdict_grid
     from rattle_core.model.gearbox import Gearbox
-    from rattle_core.solver.runup import check_run, replay
+    from rattle_core.solver.runup import check_run
     from rattle_core.store.exports import write_table
     out = check_output(args.out, (".csv", ".parquet"), "--out")
+    intervals_out = out.with_name(f"{out.stem}_intervals{out.suffix}")
     wav = check_output(args.wav, (".wav",), "--wav") if args.wav else None
-    distinct_outputs(out, wav)
+    png = None
+    if args.png is not None:
+        png = check_output(args.png or str(out.with_suffix(".png")), (".png",), "--png")
+    distinct_outputs(out, intervals_out, wav, png)
     gearbox = Gearbox.from_toml(args.file)
     lo, hi = gearbox.excitation.rpm_range
     if gearbox.excitation.order_map is not None:
@@ -52,25 +66,51 @@ def run(args: argparse.Namespace) -> int:
     for name, value in (("--rpm-from", rpm_from), ("--rpm-to", rpm_to), ("--duration", args.duration)):
         if not math.isfinite(value):
             raise CLIError(f"{name} = {value!r} must be a finite number")
+    sound = wav is not None or png is not None or args.compare
     try:
         check_run(gearbox, rpm_from, rpm_to, args.duration)
+        grid = verdict_grid(rpm_from, rpm_to) if (png is not None or args.compare) else None
+        res = gearbox_runup(gearbox, rpm_from, rpm_to, args.duration, sound=sound)
     except ValueError as exc:
         raise CLIError(str(exc)) from None
-    frames = []
-    sound = np.zeros(int(round(args.duration * WAV_RATE))) if wav is not None else None
-    for gi, gear in enumerate(gearbox.gears):
-        res = replay(gearbox, gi, rpm_from, rpm_to, args.duration)
-        frames.append(res.to_frame())
-        onset = res.onset_rpm
-        info(args, f"{gear.name}: {res.impact_t.size} impacts, " +
+    for name, rr in res.replays.items():
+        onset = rr.onset_rpm
+        info(args, f"{name}: {rr.impact_t.size} impacts, " +
              (f"first at {onset:.1f} rpm" if math.isfinite(onset) else "never leaves contact"))
-        if sound is not None and res.impact_t.size:
-            sound += gearbox.transfer_pa_per_ns * render(res.impact_t, res.impact_impulse,
-                                                         args.duration, WAV_RATE)
-    table = pd.concat(frames, ignore_index=True).sort_values("t_s", kind="stable")
-    write_table(table.reset_index(drop=True), out)
+    write_table(res.impacts, out)
     info(args, f"wrote {out}")
+    write_table(res.intervals, intervals_out)
+    info(args, f"wrote {intervals_out}")
     if wav is not None:
-        write_wav(wav, normalize(sound), WAV_RATE)
-        info(args, f"wrote {wav}")
+        write_wav(wav, normalize(res.pressure_pa), WAV_RATE)
+        info(args, f"wrote {wav}: full scale (1.0, int16 32767) = {res.calibration_pa:.6g} Pa")
+    if sound:
+        peak_n = float(np.max(res.loudness_t)) if res.loudness_t.size else 0.0
+        finite = res.level_dba_t[np.isfinite(res.level_dba_t)]
+        info(args, f"gearbox: N max {peak_n:.2f} sone, L_AF max "
+             f"{float(finite.max()) if finite.size else float('nan'):.1f} dB(A)")
+    verdict = comparison = None
+    if grid is not None:
+        from rattle_core.store.verdicts import cached_verdict
+        verdict = cached_verdict(gearbox, grid, ensemble_runs=0)
+    if args.compare:
+        down = gearbox_runup(gearbox, rpm_to, rpm_from, args.duration, sound=False)
+        comparison = compare(res, verdict, down)
+        for name, row in comparison.onsets.set_index("gear").iterrows():
+            info(args, f"{name}: onset on the run {_rpm(row.onset_run_rpm)}, on the run-down "
+                       f"{_rpm(row.onset_rundown_rpm)}, in the verdict {_rpm(row.onset_verdict_rpm)}")
+        for line in comparison.text.splitlines():
+            info(args, line)
+    elif verdict is not None:
+        for name, onset in res.onsets.items():
+            info(args, f"{name}: onset on the run {_rpm(onset)}, in the verdict "
+                       f"{_rpm(verdict.onsets[name])}")
+    if png is not None:
+        from rattle_core.paper.runup_pictures import runup_png
+        runup_png(png, res, comparison, verdict)
+        info(args, f"wrote {png}")
     return 0
+
+
+def _rpm(value: float) -> str:
+    return "never" if not math.isfinite(value) else f"{value:.0f} rpm"

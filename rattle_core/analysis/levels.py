@@ -21,6 +21,10 @@ A-weighting (IEC 61672-1:2013, Annex E)
     ``p_A²`` with ``τ = 0.125 s`` (IEC 61672-1, 3.7), a compiled ``nogil`` loop.  Its first
     :data:`~rattle_core.analysis.loudness.SKIP_S` seconds are left out, as for the loudness: the
     average starts from silence.
+``fast_level_series``
+    ``L_AF(t)``, the same fast time-weighted level as a time series, sampled every ``step_s``;
+    of several incoherent sources (rows of a 2-D array) their A-weighted energies add before
+    the average, so phases never cancel.
 A silent signal is ``-inf`` dB; tables show it as empty.
 """
 from __future__ import annotations
@@ -79,6 +83,18 @@ def _fast_max(p2, alpha, skip):
     return peak
 
 
+@njit(cache=True, nogil=True)
+def _fast_series(p2, alpha, every):
+    # the same one-pole average as _fast_max, kept at every ``every``-th sample
+    out = np.empty((p2.size + every - 1) // every)
+    avg = 0.0
+    for n in range(p2.size):
+        avg += alpha * (p2[n] - avg)
+        if n % every == 0:
+            out[n // every] = avg
+    return out
+
+
 def _db(mean_square: float) -> float:
     return 10.0 * math.log10(mean_square / P_REF ** 2) if mean_square > 0 else -math.inf
 
@@ -118,6 +134,39 @@ def level(pressure_pa: np.ndarray, fs: float, *, skip_s: float = 0.05) -> Level:
     return Level(_db(float(np.mean(p2))), _db(_fast_max(p2, alpha, skip)))
 
 
+def fast_level_series(pressure_pa: np.ndarray, fs: float, *, step_s: float = 0.002
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """The fast time-weighted A level ``L_AF(t)`` [dB(A)] (τ = 125 ms) every ``step_s`` seconds.
+
+    ``pressure_pa`` is one sound pressure [Pa] or several incoherent ones (rows of a 2-D array,
+    equal lengths): their ``p_A²`` add before the exponential average.  Returns the times [s]
+    (from 0, the first sample) and the levels; silence is ``-inf``.  Its maximum after the
+    first ``skip_s`` is :func:`level`'s ``spl_dba_max``.
+    """
+    p = np.asarray(pressure_pa, dtype=float)
+    if p.ndim == 1:
+        p = p[None, :]
+    if p.ndim != 2 or p.shape[1] == 0:
+        raise ValueError(f"pressure_pa must be a non-empty 1-D signal or a 2-D array of signals, "
+                         f"got shape {np.shape(pressure_pa)}")
+    if not np.all(np.isfinite(p)):
+        raise ValueError("pressure_pa must be finite (it holds NaN or inf)")
+    if not (isinstance(fs, (int, float)) and math.isfinite(fs) and fs > 0):
+        raise ValueError(f"fs must be a positive sample rate [Hz], got {fs!r}")
+    if not (isinstance(step_s, (int, float)) and 0.0 < step_s <= 1.0):
+        raise ValueError(f"step_s = {step_s!r} must be in (0, 1] s")
+    p2 = np.zeros(p.shape[1])
+    for row in p:
+        if np.any(row):
+            pa = a_weighted(row, fs)
+            p2 += pa * pa
+    every = max(1, int(round(step_s * fs)))
+    ms = _fast_series(p2, -math.expm1(-1.0 / (fs * TAU_FAST)), every)
+    with np.errstate(divide="ignore"):
+        db = np.where(ms > 0, 10.0 * np.log10(np.maximum(ms, 1e-300) / P_REF ** 2), -np.inf)
+    return np.arange(ms.size) * (every / fs), db
+
+
 def energy_sum_db(levels_db) -> float:
     """The level of incoherent sources together: ``10 log₁₀ Σ 10^(L/10)`` (``−inf`` for none)."""
     levels = np.asarray(levels_db, dtype=float)
@@ -125,4 +174,4 @@ def energy_sum_db(levels_db) -> float:
     return 10.0 * math.log10(float(np.sum(10.0 ** (levels / 10.0)))) if levels.size else -math.inf
 
 
-__all__ = ["Level", "level", "a_weighting_db", "a_weighted", "energy_sum_db", "P_REF", "TAU_FAST"]
+__all__ = ["Level", "level", "a_weighting_db", "a_weighted", "energy_sum_db", "fast_level_series", "P_REF", "TAU_FAST"]

@@ -209,8 +209,8 @@ def runup_wall(gearbox: Gearbox, gear: int | str, rpm_from: float, rpm_to: float
     duration_s : float
         Length of the run [s], in (0, 3600].
     drag : callable, optional
-        ``drag(rpm) -> torque [N·m]`` at each shaft speed (vectorised); default the gear's
-        constant ``drag_torque_Nm``.  It is evaluated at each piece's ends and linear between.
+        ``drag(rpm) -> torque [N·m]`` at each shaft speed (vectorised); default the gear's own
+        drag (:meth:`Gearbox.drag_Nm`: a constant, or a table or the oil model at each speed).  It is evaluated at each piece's ends and linear between.
     """
     if not isinstance(gearbox, Gearbox):
         raise TypeError(f"gearbox must be a Gearbox, got {type(gearbox).__name__}")
@@ -218,6 +218,9 @@ def runup_wall(gearbox: Gearbox, gear: int | str, rpm_from: float, rpm_to: float
     check_run(gearbox, rpm_from, rpm_to, duration_s)
     rpm_from, rpm_to, duration_s = float(rpm_from), float(rpm_to), float(duration_s)
     g = gearbox.gears[gi]
+    if drag is None and g.drag_torque_Nm is None:
+        # a drag that varies (a table, the oil model): the gear's own, at the box's oil temperature
+        drag = lambda rpm: gearbox.drag_Nm(gi, rpm)  # noqa: E731
     exc = gearbox.excitation
     eo = float(exc.engine_order)
     lo, hi = min(rpm_from, rpm_to), max(rpm_from, rpm_to)
