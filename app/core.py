@@ -43,6 +43,7 @@ from rattle_core.solver.trajectory import MAX_T0, SOLVER_VERSION
 from rattle_core.analysis.loudness import SAMPLE_RATE as LOUDNESS_RATE
 from rattle_core.analysis.loudness import loudness
 from rattle_core.analysis.sound import render, normalize
+from rattle_core.batch.actions import scaled_drag
 from rattle_core.batch.gearbox import GEARBOX
 from rattle_core.batch.gearbox import check_rpm as check_verdict_rpm
 from rattle_core.model.gearbox import (DEFAULT_DURATION_S, DEFAULT_TRANSFER_PA_PER_NS,
@@ -81,5 +82,5 @@ __all__ = [
     "LOUDNESS_RATE", "loudness", "render", "normalize", "GEARBOX", "DEFAULT_DURATION_S",
     "DEFAULT_TRANSFER_PA_PER_NS", "Excitation", "Gear", "Gearbox", "SAMPLE_RUNUP", "OrderMap",
     "orders_png", "verdict_png", "cached_verdict", "check_verdict_rpm",
-    "Target", "designs_png", "verdict_tables", "csv_text", "REGIME_WORDS",
+    "Target", "designs_png", "verdict_tables", "csv_text", "REGIME_WORDS", "scaled_drag",
 ]

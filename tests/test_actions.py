@@ -1,10 +1,14 @@
-"""Ranges and countermeasures of a verdict (rattle_core.batch.actions) against closed forms."""
+"""Ranges, countermeasures and drag what-ifs of a verdict (rattle_core.batch.actions) against
+closed forms."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from rattle_core.batch.actions import energy_shares, quiet_summary, rattle_ranges
+from rattle_core.batch.actions import (added_drag, energy_shares, quiet_summary, rattle_ranges,
+                                       scaled_drag)
+from rattle_core.model.drag import Drag, Oil
+from rattle_core.model.gearbox import Gear
 
 
 def _ratio(x):
@@ -50,3 +54,31 @@ def test_energy_shares_add_to_one_and_follow_the_levels():
     s = energy_shares(np.array([[70.0, 60.0, -np.inf], [-np.inf, -np.inf, -np.inf]]))
     assert s[0] == pytest.approx([10 / 11, 1 / 11, 0])
     assert np.all(np.isnan(s[1]))
+
+
+OIL = Oil(iso_vg=68, nu100_cSt=9, temp_C=40)
+DRAGS = {
+    "constant": Drag.constant(0.05),
+    "oil": Drag.from_value({"bush_Nm": 0.01, "churn_Nm": 0.02, "at_rpm": 2000, "at_temp_C": 40}, "gear"),
+    "table": Drag.from_value({"rpm": [1000, 3000], "torque_Nm": [0.02, 0.06]}, "gear"),
+    "table over temperature": Drag.from_value({"rpm": [1000, 3000], "temp_C": [0, 80],
+                                               "torque_Nm": [[0.08, 0.12], [0.02, 0.03]]},
+                                              "gear"),
+}
+
+
+@pytest.mark.parametrize("kind", DRAGS)
+def test_scaled_and_added_drag_hold_for_every_drag_kind(kind):
+    """Scaling a gear's drag by k multiplies its torque by k at every speed and temperature;
+    adding δ adds δ there (each compared with the original drag's torque)."""
+    gear = Gear("g", inertia_kgm2=4e-4, base_radius_m=0.035, drag_torque_Nm=None,
+                backlash_um=80, drag=DRAGS[kind])
+    rpm = np.array([1000.0, 1700.0, 3000.0])
+    for temp in (10.0, 40.0, 70.0):
+        before = gear.drag.torque(rpm, temp, OIL)
+        np.testing.assert_allclose(scaled_drag(gear, 1.5).drag.torque(rpm, temp, OIL),
+                                   1.5 * before, rtol=1e-12)
+        np.testing.assert_allclose(added_drag(gear, 0.004).drag.torque(rpm, temp, OIL),
+                                   before + 0.004, rtol=1e-12)
+    with pytest.raises(ValueError, match="drag factor"):
+        scaled_drag(gear, 0.0)

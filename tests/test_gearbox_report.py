@@ -38,7 +38,8 @@ backlash_um = 80
 def verdicts(tmp_path_factory):
     box = Gearbox.from_text(TOML)
     cache = tmp_path_factory.mktemp("cache")
-    run = dict(transient=60, record=30, ensemble_runs=0, directory=cache)
+    run = dict(transient=60, record=30, ensemble_runs=0, directory=cache,
+               target=Target.parse("1000:0.1,3000:0.1 sone"))
     a = cached_verdict(box, [1000.0, 2000.0, 3000.0], **run)
     stiffer = box.replace(gears=tuple(g.replace(drag_torque_Nm=0.2) for g in box.gears))
     b = cached_verdict(stiffer, [1000.0, 2000.0, 3000.0], **run)
@@ -53,8 +54,7 @@ def test_report_carries_hash_legend_units_and_escapes(verdicts):
     data = b"time_s,speed_rpm\n0,1000\n"
     ident = work.file_identity(data)
     assert ident["sha256"] == hashlib.sha256(data).hexdigest()
-    target = Target.parse("1000:0.1,3000:0.1 sone")
-    page = work.report_html(a, b, "drag 0.2 N·m", target,
+    page = work.report_html(a, b, "drag 0.2 N·m",
                             {"file": "<b>run&up.csv</b>", "sha256": ident["sha256"]})
     assert ident["sha256"] in page
     assert "&lt;b&gt;run&amp;up.csv&lt;/b&gt;" in page and "<b>run&up.csv</b>" not in page

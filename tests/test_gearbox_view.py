@@ -3,6 +3,7 @@ background, the exports (CSV, an HTML report that escapes what users typed), lis
 uploads refused by size or content."""
 from __future__ import annotations
 
+import numpy as np
 import pandas as pd
 import pytest
 from conftest import wait_for
@@ -48,7 +49,7 @@ def test_sample_verdict_variant_and_exports(view):
     assert set(side["pass"]) <= {"pass", "fail"} and "&lt;script&gt;" in view.side_by_side.object
     from app.ui.gearbox_plots import metric_plot
     import holoviews as hv
-    plot = metric_plot(view.base, view.variant, "loudness_sone", "loudness", target=view.target)
+    plot = metric_plot(view.base, view.variant, "loudness_sone", "loudness")
     labels = [el.label for el in plot]
     assert "target" in labels and ("fail" not in set(a["pass"].astype(str)) or any(
         isinstance(el, hv.VSpan) for el in plot))
@@ -131,3 +132,54 @@ def test_target_text_and_oil_temperature_are_checked(view):
     view.copy_design()
     assert view.settings.variant == "design"
     assert view.table_b.value.equals(view.table.value)
+
+
+OIL_BOX = b"""
+[excitation]
+orders = [{order = 2, amplitude_rad = 1e-3}]
+engine_order = 2
+harmonics = 1
+
+[sound]
+duration_s = 0.2
+
+[oil]
+iso_vg = 68
+nu100_cSt = 9
+temp_C = 40
+
+[target]
+rpm = [1000, 3000]
+sone = [0.1, 0.3]
+
+[[gear]]
+name = "idler"
+inertia_kgm2 = 4e-4
+base_radius_m = 0.035
+backlash_um = 80
+drag = {bush_Nm = 0.01, churn_Nm = 0.02, at_rpm = 2000, at_temp_C = 40}
+"""
+
+
+def test_drag_what_if_scales_an_oil_drag_and_the_file_target_is_shown(view):
+    """An uploaded gearbox with [oil], an oil-drag gear and a [target]: the target field shows
+    the file's target in the CLI's form (and keeps what the user types over the next upload);
+    the verdict's drag is the oil model's 0.01 + 0.02·rpm/2000 N·m at 40 °C, the drag +50 %
+    what-if's is 1.5 times it at every speed, and the what-if rattles no earlier."""
+    view._on_toml(type("E", (), {"new": OIL_BOX})())
+    wait_for(lambda: list(view.table.value["name"]) == ["idler"], 120, "the table")
+    assert view.settings.target == "1000:0.1,3000:0.3 sone"
+    assert view.target_input.value == "1000:0.1,3000:0.3 sone"
+    view.settings.param.update(rpm_start=600.0, rpm_stop=3000.0, rpm_num=5, variant="drag",
+                               drag_pct=50.0, transient=150, record=40)
+    assert view.run(), view.state.messages
+    wait_for(lambda: view.revision == 1, 300, "the verdict")
+    base, what_if = view.base.gear("idler"), view.variant.gear("idler")
+    rpm = base["rpm"].to_numpy()
+    np.testing.assert_allclose(base["drag_Nm"], 0.01 + 0.02 * rpm / 2000, rtol=1e-9)
+    np.testing.assert_allclose(what_if["drag_Nm"], 1.5 * (0.01 + 0.02 * rpm / 2000), rtol=1e-9)
+    assert not (view.variant.onsets["idler"] < view.base.onsets["idler"])
+    assert view.base.gearbox.target.limits["sone"] == (0.1, 0.3)
+    assert view.set_target("1000:5,3000:5 sone")
+    view._toml_read(work.gearbox_text(OIL_BOX, view.order_map))  # the upload's callback
+    assert view.settings.target == "1000:5,3000:5 sone"

@@ -82,21 +82,21 @@ def regime_plot(base: Any, variant: Any) -> hv.Overlay:
 TARGET_KEYS = {"loudness_sone": "sone", "spl_dba": "dba"}
 
 
-def metric_plot(base: Any, variant: Any, column: str, label: str, logy: bool = False,
-                target: Any = None) -> hv.Overlay:
+def metric_plot(base: Any, variant: Any, column: str, label: str, logy: bool = False
+                ) -> hv.Overlay:
     """``column`` against rpm for each gear and the gearbox; the variant dashed; the target's
     limit (red) with the baseline's failing speeds shaded, and the variant's hatched."""
     curves = []
     key = TARGET_KEYS.get(column)
     for verdict, alpha in ((base, 0.15), (variant, 0.07)):
-        tgt = None if verdict is None else vt.target_of(verdict, target)
+        tgt = None if verdict is None else vt.target_of(verdict)
         if tgt is None or key not in tgt.limits:
             continue
-        for a, b in vt.failing(verdict, tgt).get(GEARBOX, []):
+        for a, b in vt.failing(verdict).get(GEARBOX, []):
             if b <= a:
                 a, b = a - 5.0, b + 5.0
             curves.append(hv.VSpan(a, b).opts(color="#d62728", alpha=alpha, line_alpha=0))
-    tgt = None if base is None else vt.target_of(base, target)
+    tgt = None if base is None else vt.target_of(base)
     if tgt is not None and key in tgt.limits:
         rpm = base.rpm
         grid = np.linspace(float(rpm[0]), float(rpm[-1]), 200)

@@ -27,7 +27,8 @@ import pandas as pd
 import panel as pn
 import param
 
-from ..core import Excitation, Gear, Gearbox, Target, check_verdict_rpm, csv_text
+from ..core import (Excitation, Gear, Gearbox, Target, check_verdict_rpm, csv_text,
+                    scaled_drag)
 from ..core import verdict_tables as vt
 from ..state import ExplorerState, GearboxSettings
 from ..ui.gearbox_plots import metric_plot, orders_plot, regime_plot
@@ -66,6 +67,12 @@ class GearboxView(pn.viewable.Viewer):
             self.settings = GearboxSettings()
         self.order_map: Any = None
         self.constant: Any = None  # constant orders from an uploaded gearbox file
+        # an uploaded file's oil and its gears' drags that the table's one number cannot hold
+        # (tables over speed or temperature, the oil model), kept by gear name
+        self.oil: Any = None
+        self.drags: dict = {}
+        # the target text last shown from an uploaded file (replaced by the next file's)
+        self.file_target = ""
         self.base: Any = None
         self.variant: Any = None
         self.variant_text = ""
@@ -144,7 +151,7 @@ class GearboxView(pn.viewable.Viewer):
                     "intensity": lambda: metric_plot(self.base, self.variant, "intensity",
                                                      "intensity Σ I²/s [N²·s]", logy=True),
                     "loudness": lambda: metric_plot(self.base, self.variant, "loudness_sone",
-                                                    "loudness N5 [sone]", target=self.target)}[key]
+                                                    "loudness N5 [sone]")}[key]
             return hv.DynamicMap(lambda revision: draw(), streams=[hv.streams.Params(self, ["revision"])])
 
     def _redraw(self, *keys: str) -> None:
@@ -265,7 +272,12 @@ class GearboxView(pn.viewable.Viewer):
                          on_error=lambda m: self.state.say("gearbox-gears", m))
 
     def _toml_read(self, box: Any) -> None:
+        self.oil = box.oil
+        self.drags = {g.name: g.drag for g in box.gears if g.drag_torque_Nm is None}
         self.table.value = pd.DataFrame(_gear_rows(box), columns=COLUMNS)
+        if self.settings.target in ("", self.file_target):  # what the user typed stays
+            self.file_target = "" if box.target is None else vt.target_text(box.target)
+            self.set_target(self.file_target)
         exc = box.excitation
         self.settings.param.update(engine_order=exc.engine_order, harmonics=exc.harmonics,
                                    transfer=box.transfer_pa_per_ns)
@@ -323,8 +335,12 @@ class GearboxView(pn.viewable.Viewer):
             values["name"] = str(values["name"])
             dr = values["driver_radius_m"]
             values["driver_radius_m"] = None if dr is None or (isinstance(dr, float) and math.isnan(dr)) else dr
+            dt = values["drag_torque_Nm"]
+            if (dt is None or (isinstance(dt, float) and math.isnan(dt))) and values["name"] in self.drags:
+                values["drag_torque_Nm"], values["drag"] = None, self.drags[values["name"]]
             try:
-                gears.append(Gear(**{k: (v if k == "name" or v is None else float(v)) for k, v in values.items()}))
+                gears.append(Gear(**{k: (v if k in ("name", "drag") or v is None else float(v))
+                                     for k, v in values.items()}))
             except (TypeError, ValueError) as exc:
                 raise ValueError(f"row {i + 1}: {exc}") from None
         if self.constant is not None:
@@ -333,14 +349,16 @@ class GearboxView(pn.viewable.Viewer):
             raise ValueError("load a measurement or take the sample run-up first")
         else:
             exc_ = Excitation(engine_order=s.engine_order, harmonics=s.harmonics, order_map=self.order_map)
-        return Gearbox(excitation=exc_, gears=tuple(gears), transfer_pa_per_ns=s.transfer)
+        needs_oil = any(g.drag.needs_oil for g in gears)
+        return Gearbox(excitation=exc_, gears=tuple(gears), transfer_pa_per_ns=s.transfer,
+                       oil=self.oil if needs_oil else None)
 
     def variant_of(self, box: Gearbox) -> tuple[Gearbox | None, str]:
         """The what-if gearbox the settings ask for, and its name."""
         s = self.settings
         if s.variant == "drag":
-            return box.replace(gears=tuple(g.replace(drag_torque_Nm=g.drag_torque_Nm * (1 + s.drag_pct / 100))
-                                           for g in box.gears)), f"drag torque {s.drag_pct:+g} %"
+            return box.replace(gears=tuple(scaled_drag(g, 1 + s.drag_pct / 100) for g in box.gears)
+                               ), f"drag torque {s.drag_pct:+g} %"
         if s.variant == "backlash":
             return box.replace(gears=tuple(g.replace(backlash_um=g.backlash_um + s.backlash_change_um)
                                            for g in box.gears)), f"backlash {s.backlash_change_um:+g} µm"
@@ -349,24 +367,19 @@ class GearboxView(pn.viewable.Viewer):
                 other = self.gearbox(self.table_b)
             except ValueError as exc:
                 raise ValueError(f"design B, {exc}") from None
-            return other.replace(**{k: getattr(box, k) for k in ("target", "oil_temp_C")
-                                    if hasattr(box, k)}), "design B"
+            return other.replace(target=box.target, oil_temp_C=box.oil_temp_C), "design B"
         return None, ""
 
     def with_settings(self, box: Gearbox) -> Gearbox:
         """``box`` with the tab's target and oil temperature (``ValueError`` naming them)."""
         s = self.settings
         if self.target is not None:
-            try:
-                box = box.replace(target=self.target)
-            except TypeError:
-                pass  # a model without targets: the tables still judge by it (verdict_tables)
+            box = box.replace(target=self.target)
         if s.oil_temp is not None:
             try:
                 box = box.replace(oil_temp_C=float(s.oil_temp))
-            except TypeError:
-                raise ValueError("oil temperature: this gearbox model has no oil temperature; "
-                                 "leave it empty") from None
+            except ValueError as exc:
+                raise ValueError(f"oil temperature: {exc}") from None
         return box
 
     # ----- the verdict --------------------------------------------------------------------
@@ -398,7 +411,7 @@ class GearboxView(pn.viewable.Viewer):
             return False
         self.variant_text = text
         self.run_panel.submit(
-            object(), work.verdicts, (box, variant, rpm, s.transient, s.record, text, self.target,
+            object(), work.verdicts, (box, variant, rpm, s.transient, s.record, text,
                                       self.provenance()),
             f"Computing {len(box.gears)} gears × {rpm.size} speeds"
             f"{' and the variant' if variant is not None else ''}…", 600.0,
@@ -409,7 +422,7 @@ class GearboxView(pn.viewable.Viewer):
         """The measurement's name and hash, and the tab's settings, for the report."""
         s = self.settings
         out = dict(self.identity)
-        out["settings"] = {"target": s.target or "the file's", "what-if": self.variant_text or s.variant}
+        out["settings"] = {"target": s.target or "none", "what-if": self.variant_text or s.variant}
         if s.oil_temp is not None:
             out["settings"]["oil temperature [°C]"] = s.oil_temp
         return out
@@ -448,18 +461,16 @@ class GearboxView(pn.viewable.Viewer):
         rows = []
         designs = [("A", self.base)] + ([("B", self.variant)] if self.variant is not None else [])
         for tag, res in designs:
-            t = vt.frame(res, self.target)
+            t = vt.frame(res)
             rng = vt.ranges(res)
             for name in vt.gear_names(res) + [vt.GEARBOX]:
                 g = t[t["gear"] == name]
                 row = {"gear": name, "design": tag,
                        "onset [rpm]": res.onsets.get(name, np.nan),
                        "rattle ranges [rpm]": vt.format_ranges(rng.get(name, [])),
-                       "loudness max [sone]": g["loudness_sone"].max()}
-                if "spl_dba" in g:
-                    row["L_Aeq max [dB(A)]"] = g["spl_dba"].max()
-                if "pass" in g:
-                    row["pass"] = "pass" if g["pass"].astype(bool).all() else "fail"
+                       "loudness max [sone]": g["loudness_sone"].max(),
+                       "L_Aeq max [dB(A)]": g["spl_dba"].max(),
+                       "pass": "pass" if g["pass"].astype(bool).all() else "fail"}
                 rows.append(row)
         return pd.DataFrame(rows)
 
@@ -477,9 +488,9 @@ class GearboxView(pn.viewable.Viewer):
         if self.base is None:
             return io.StringIO("")
         if self.variant is None:
-            return io.StringIO(csv_text(vt.frame(self.base, self.target).assign(design="baseline")))
+            return io.StringIO(csv_text(vt.frame(self.base).assign(design="baseline")))
         names = vt.design_names("baseline", self.variant_text)
-        return io.StringIO(csv_text(vt.compare_frame(self.base, self.variant, names, self.target)))
+        return io.StringIO(csv_text(vt.compare_frame(self.base, self.variant, names)))
 
     # ----- listening ----------------------------------------------------------------------
 

@@ -99,7 +99,7 @@ def gearbox_text(data: bytes, order_map: Any) -> Any:
 
 
 def verdicts(gearbox: Any, variant: Any, rpm: np.ndarray, transient: int, record: int,
-             variant_text: str = "", target: Any = None, provenance: dict | None = None) -> tuple:
+             variant_text: str = "", provenance: dict | None = None) -> tuple:
     """The verdict on ``gearbox`` and, if given, on ``variant`` (a what-if or a second design),
     through the disk cache, and the report of both (:func:`report_html`; empty when cancelled)."""
     from ..core import cached_verdict
@@ -114,7 +114,7 @@ def verdicts(gearbox: Any, variant: Any, rpm: np.ndarray, transient: int, record
         if out[-1].cancelled:
             return out[0], None, ""
     variant_result = out[1] if len(out) > 1 else None
-    return out[0], variant_result, report_html(out[0], variant_result, variant_text, target,
+    return out[0], variant_result, report_html(out[0], variant_result, variant_text,
                                                provenance)
 
 
@@ -169,7 +169,18 @@ def _table(df: Any) -> str:
     return vt.with_units(df).to_html(index=False, escape=True, float_format="%.4g")
 
 
-def report_html(base: Any, variant: Any, variant_text: str, target: Any = None,
+def _drag_text(gear: Any) -> str:
+    """A gear's drag as the report's gear table shows it: the constant, or its model."""
+    d = gear.drag
+    if d.kind == "constant":
+        return f"{d.value_Nm:g}"
+    if d.kind == "oil":
+        return (f"{d.bush_Nm:g} + {d.churn_Nm:g}·ν(T)/ν({d.at_temp_C:g} °C)·rpm/{d.at_rpm:g}")
+    over = "rpm × °C" if d.temp_C else "rpm"
+    return f"table over {over}"
+
+
+def report_html(base: Any, variant: Any, variant_text: str,
                 provenance: dict | None = None) -> str:
     """A self-contained HTML report to hand on: where the numbers come from (the measurement's
     file name and SHA-256, the date in UTC, the version, the settings), the regime legend, the
@@ -183,7 +194,7 @@ def report_html(base: Any, variant: Any, variant_text: str, target: Any = None,
     box = base.gearbox
     exc = box.excitation
     source = exc.order_map.source if exc.order_map is not None else "constant orders"
-    target = vt.target_of(base, target)
+    target = vt.target_of(base)
     try:
         from importlib.metadata import version
         ver = version("rattle-explorer")
@@ -193,15 +204,13 @@ def report_html(base: Any, variant: Any, variant_text: str, target: Any = None,
                 **{k: v for k, v in base.settings.items()},
                 "transfer [Pa/(N·s)]": box.transfer_pa_per_ns, "sound per point [s]": box.duration_s,
                 "engine order of the fundamental": exc.engine_order, "harmonics": exc.harmonics}
-    if getattr(box, "oil_temp_C", None) is not None:
+    if box.oil_temp_C is not None:
         settings["oil temperature [°C]"] = box.oil_temp_C
     if target is not None:
-        settings["target"] = "; ".join(
-            ",".join(f"{r:g}:{v:g}" for r, v in zip(target.rpm, vals)) + f" {key}"
-            for key, vals in target.limits.items())
+        settings["target"] = vt.target_text(target)
     settings.update(prov.get("settings", {}))
     gears = "".join("<tr>" + "".join(f"<td>{esc(str(v))}</td>" for v in (
-        g.name, g.inertia_kgm2, g.base_radius_m, g.drag_torque_Nm, g.backlash_um, g.restitution,
+        g.name, g.inertia_kgm2, g.base_radius_m, _drag_text(g), g.backlash_um, g.restitution,
         g.speed_ratio, g.drive_radius_m)) + "</tr>" for g in box.gears)
     rows = "".join(f"<tr><th>{esc(str(k))}</th><td>{esc(str(v))}</td></tr>" for k, v in (
         ("measurement file", prov.get("file", source)),
@@ -224,10 +233,10 @@ def report_html(base: Any, variant: Any, variant_text: str, target: Any = None,
         "<h2>Gears</h2><table><tr><th>gear</th><th>J [kg·m²]</th><th>R_b [m]</th><th>C [N·m]</th>"
         "<th>backlash [µm]</th><th>r</th><th>speed ratio</th><th>R_d [m]</th></tr>" + gears + "</table>",
         "<h2>What rattles, and what keeps it quiet</h2><ul class='summaries'>" + "".join(
-            f"<li>{esc(line)}</li>" for line in vt.gear_lines(base, target)) + "</ul>",
+            f"<li>{esc(line)}</li>" for line in vt.gear_lines(base)) + "</ul>",
     ]
     if target is not None:
-        fails = vt.failing(base, target)
+        fails = vt.failing(base)
         parts.append("<h2>Target</h2><p>" + esc(settings["target"]) + "</p><ul class='failing'>"
                      + "".join(f"<li>{esc(n)}: "
                                f"{esc(vt.format_ranges(r)) + ' rpm' if r else 'meets the target'}</li>"
@@ -246,11 +255,10 @@ def report_html(base: Any, variant: Any, variant_text: str, target: Any = None,
         parts.append(f"<h2>B: {esc(variant_text)}</h2>" + _png(verdict_png, variant, variant_text))
         parts.append("<h3>A and B side by side</h3><ul class='compare'>" + "".join(
             f"<li>{esc(line)}</li>" for line in vt.compare_lines(base, variant, ("baseline",
-                                                                                 variant_text),
-                                                                target)) + "</ul>")
-    parts.append("<h2>Table</h2>" + _table(vt.frame(base, target)))
+                                                                                 variant_text))) + "</ul>")
+    parts.append("<h2>Table</h2>" + _table(vt.frame(base)))
     if variant is not None:
         parts.append("<h2>Both designs, and B - A</h2>"
-                     + _table(vt.compare_frame(base, variant, ("A", "B"), target)))
+                     + _table(vt.compare_frame(base, variant, ("A", "B"))))
     parts.append("</body></html>")
     return "\n".join(parts)

@@ -118,7 +118,8 @@ def add_parser(sub) -> None:
                         "(default: the file's)")
     p.add_argument("--oil-temps", dest="oil_temps", type=oil_temps, metavar="A:B:N",
                    help="a verdict at N oil temperatures from A to B °C: the CSV gains oil_temp_C, "
-                        "the PNG is the map of regime, loudness and pass over rpm × temperature")
+                        "the PNG is the map of regime, loudness and pass over rpm × temperature "
+                        "(computed afresh, not cached)")
     p.add_argument("--compare", metavar="B.toml",
                    help="a second design run at the same speeds and settings: the CSV gets a "
                         "design column and B - A rows, the PNG draws B dashed")
@@ -141,22 +142,15 @@ def add_parser(sub) -> None:
 
 
 def _settings(gearbox: Gearbox, args: argparse.Namespace, which: str) -> Gearbox:
-    """``gearbox`` with the command line's transfer, target and oil temperature."""
-    changes = {}
-    if args.transfer is not None:
-        changes["transfer_pa_per_ns"] = args.transfer
-    if args.target is not None:
-        changes["target"] = args.target
-    if args.oil_temp is not None:
-        changes["oil_temp_C"] = args.oil_temp
-    for key, value in changes.items():
-        option = {"transfer_pa_per_ns": "--transfer", "target": "--target",
-                  "oil_temp_C": "--oil-temp"}[key]
+    """``gearbox`` with the command line's transfer, target and oil temperature: the target
+    reaches the verdict only through the gearbox, as the file's [target] does."""
+    changes = {"transfer_pa_per_ns": ("--transfer", args.transfer),
+               "target": ("--target", args.target), "oil_temp_C": ("--oil-temp", args.oil_temp)}
+    for key, (option, value) in changes.items():
+        if value is None:
+            continue
         try:
             gearbox = gearbox.replace(**{key: value})
-        except TypeError:
-            if key != "target":  # a target is also applied to the table (verdict_tables)
-                raise CLIError(f"{option}: this gearbox model has no {key}") from None
         except ValueError as exc:
             raise CLIError(f"{option} ({which}): {exc}") from None
     return gearbox
@@ -171,6 +165,7 @@ def run(args: argparse.Namespace) -> int:
     temperature."""
     from rattle_core.batch.executor import dask_session
     from rattle_core.batch.gearbox import check_rpm
+    from rattle_core.batch.temperatures import verdict_over_temperatures
     from rattle_core.model.gearbox import Gearbox
     from rattle_core.paper.verdict_pictures import designs_png
     from rattle_core.store import verdict_tables as vt
@@ -194,12 +189,7 @@ def run(args: argparse.Namespace) -> int:
         other = _settings(Gearbox.from_toml(args.compare), args, "B")
     rpm = args.rpm if args.rpm is not None else round_grid(gearbox)
     boxes = [gearbox] + ([other] if other is not None else [])
-    if args.oil_temps is not None:
-        try:
-            boxes = [gearbox.replace(oil_temp_C=float(t)) for t in args.oil_temps]
-        except TypeError:
-            raise CLIError("--oil-temps: this gearbox model has no oil temperature") from None
-    for which, box in zip("AB", boxes[:2] if args.oil_temps is None else boxes[:1]):
+    for which, box in zip("AB", boxes):
         try:
             check_rpm(rpm, box)
         except ValueError as exc:
@@ -207,6 +197,8 @@ def run(args: argparse.Namespace) -> int:
                            f"{exc}") from None
     bar = Progress("gearbox", enabled=not args.quiet, unit="point")
     results = []
+    run_kw = dict(transient=args.transient, record=args.record, progress=bar,
+                  ensemble_runs=args.runs)
     try:
         with contextlib.ExitStack() as stack:
             try:
@@ -214,61 +206,64 @@ def run(args: argparse.Namespace) -> int:
                                                             args.workers))
             except (ConnectionError, ValueError) as exc:
                 raise CLIError(f"{'--scheduler' if args.scheduler else '--dask'}: {exc}") from None
-            for box in boxes:
-                results.append(cached_verdict(box, rpm, transient=args.transient,
-                                              record=args.record, progress=bar,
-                                              use_cache=not args.no_cache,
-                                              ensemble_runs=args.runs, executor=executor))
+            if args.oil_temps is not None:
+                # one computation over all temperatures, not cached: a map is asked for once,
+                # while a single verdict is looked at again and again (and is cached)
+                try:
+                    table = verdict_over_temperatures(gearbox, rpm, args.oil_temps,
+                                                      executor=executor, **run_kw)
+                except ValueError as exc:
+                    raise CLIError(f"--oil-temps: {exc}") from None
+            else:
+                for box in boxes:
+                    results.append(cached_verdict(box, rpm, use_cache=not args.no_cache,
+                                                  executor=executor, **run_kw))
     finally:
         bar.close()
-    cached = " (from the cache)" if all(r.from_cache for r in results) else ""
     if args.oil_temps is not None:
-        return _temperatures(args, results, out, png, cached)
+        return _temperatures(args, gearbox, table, out, png)
+    cached = " (from the cache)" if all(r.from_cache for r in results) else ""
     if other is None:
         result = results[0]
-        write_table(vt.frame(result, args.target), out)
-        for line in vt.gear_lines(result, args.target):
+        write_table(vt.frame(result), out)
+        for line in vt.gear_lines(result):
             info(args, line)
         if cached:
             info(args, cached.strip(" ()"))
         info(args, f"wrote {out}")
         if png is not None:
             designs_png(png, [(result, Path(args.file).name)], f"verdict of {args.file}",
-                        vt.target_of(result, args.target))
+                        vt.target_of(result))
             info(args, f"wrote {png}")
         return 0
     names = vt.design_names(Path(args.file).name, Path(args.compare).name)
-    write_table(vt.compare_frame(results[0], results[1], names, args.target), out)
-    for line in vt.compare_lines(results[0], results[1], names, args.target):
+    write_table(vt.compare_frame(results[0], results[1], names), out)
+    for line in vt.compare_lines(results[0], results[1], names):
         info(args, line)
     for name, res in zip(names, results):
-        for line in vt.gear_lines(res, args.target):
+        for line in vt.gear_lines(res):
             info(args, f"[{name}] {line}")
     info(args, f"wrote {out}")
     if png is not None:
         designs_png(png, list(zip(results, names)), f"{names[0]} against {names[1]} (dashed)",
-                    vt.target_of(results[0], args.target))
+                    vt.target_of(results[0]))
         info(args, f"wrote {png}")
     return 0
 
 
-def _temperatures(args: argparse.Namespace, results: list, out, png, cached: str) -> int:
+def _temperatures(args: argparse.Namespace, gearbox: Gearbox, table, out, png) -> int:
     """The verdicts over oil temperatures as one table (``oil_temp_C``) and one map."""
-    import pandas as pd
-
     from rattle_core.paper.verdict_pictures import temperature_map_png
     from rattle_core.store import verdict_tables as vt
     from rattle_core.store.exports import write_table
-    table = pd.concat([vt.frame(r, args.target).assign(oil_temp_C=float(t))
-                       for r, t in zip(results, args.oil_temps)], ignore_index=True)
-    table.insert(0, "oil_temp_C", table.pop("oil_temp_C"))
     write_table(table, out)
-    for r, t in zip(results, args.oil_temps):
-        onsets = "; ".join(f"{k} {vt.onset_text(v)}" for k, v in r.onsets.items())
+    names = [g.name for g in gearbox.gears]
+    for t, rows in table.groupby("oil_temp_C", sort=True):
+        onsets = "; ".join(f"{n} {vt.onset_text(float(rows.loc[rows['gear'] == n, 'onset_rpm'].iloc[0]))}"
+                           for n in names)
         info(args, f"{t:g} °C: {onsets}")
-    info(args, f"wrote {out}{cached}")
+    info(args, f"wrote {out}")
     if png is not None:
-        temperature_map_png(png, table, vt.gear_names(results[0]),
-                            f"{args.file} over oil temperature")
+        temperature_map_png(png, table, names, f"{args.file} over oil temperature")
         info(args, f"wrote {png}")
     return 0

@@ -58,7 +58,7 @@ Columns of :attr:`Verdict.table` (one row per gear and speed, then one per speed
     ``J R_d max(−θ̈_drive) / (R_b C)``: the closed-form contact boundary is where it passes 1.
 ``rattle_ranges``, ``share``, ``drag_Nm``, ``drag_to_quiet_Nm``, ``inertia_to_quiet_kgm2``
     Every rattle range, the share of the gearbox's sound, the drag, and the drag or inertia
-    that keeps the gear quiet (:mod:`rattle_core.batch.verdict_actions`).
+    that keeps the gear quiet (:mod:`rattle_core.batch.actions`).
 ``target_sone``, ``margin_sone``, ``target_dba``, ``margin_dba``, ``pass``
     The target's limits, the margins and pass/fail (same module).
 ``lam, j``
@@ -86,8 +86,8 @@ from .chunks import run_chunk, summary_arrays
 from .ensemble import statistics
 from .executor import default_threads, run_chunks
 from .sweep import check_budget
-from . import verdict_actions as _actions
-from .verdict_actions import GEARBOX, add_columns
+from . import actions as _actions
+from .actions import GEARBOX, add_columns
 
 #: Blocks of one run's recorded window behind its 95 % intervals (``ensemble_runs=0``).
 BLOCKS = 5
@@ -100,7 +100,7 @@ COLUMNS = ["gear", "rpm", "regime", "impacts_per_s", "intensity", "loudness_sone
            "impacts_per_s_ci95", "intensity_ci95", "interval", "attractors", "contact_ratio",
            "drag_Nm", "drag_to_quiet_Nm", "inertia_to_quiet_kgm2", "share", "target_sone",
            "margin_sone", "target_dba", "margin_dba", "pass", "lam", "j"]
-#: Columns :func:`~rattle_core.batch.verdict_actions.add_columns` adds.
+#: Columns :func:`~rattle_core.batch.actions.add_columns` adds.
 _ADDED = {"rattle_ranges", "drag_Nm", "drag_to_quiet_Nm", "inertia_to_quiet_kgm2", "share",
           "target_sone", "margin_sone", "target_dba", "margin_dba", "pass", "onset_rpm"}
 
@@ -156,7 +156,7 @@ class Verdict:
 
     def drag_for_target(self, gear: str, **kw: Any) -> float:
         """The drag [N·m] to add to ``gear`` so that it meets the target at every speed, by
-        bisection on verdicts of that gear (:mod:`rattle_core.batch.verdict_actions`)."""
+        bisection on verdicts of that gear (:mod:`rattle_core.batch.actions`)."""
         return _actions.drag_for_target(self, gear, verdict, **kw)
 
     @property

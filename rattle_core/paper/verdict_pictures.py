@@ -58,7 +58,7 @@ def designs_png(path: Path | str, designs: list[tuple[Any, str]], title: str,
                       label=gear + tail)
             if has_dba:
                 axes[2].plot(rows["rpm"], rows["spl_dba"], _DASH[d % 2], color=colour, lw=lw)
-        shade_failing(ax_l, res, target, hatch=d == 1)
+        shade_failing(ax_l, res, hatch=d == 1)
     if target is not None:
         lo, hi = ax_l.get_xlim()
         grid = np.linspace(lo, hi, 200)
@@ -76,9 +76,9 @@ def designs_png(path: Path | str, designs: list[tuple[Any, str]], title: str,
     fig.savefig(path)
 
 
-def shade_failing(ax: Any, result: Any, target: Target | None, hatch: bool = False) -> None:
+def shade_failing(ax: Any, result: Any, hatch: bool = False) -> None:
     """Shade the speed ranges in which the gearbox misses the target."""
-    for a, b in failing(result, target).get(GEARBOX, []):
+    for a, b in failing(result).get(GEARBOX, []):
         if b <= a:
             a, b = a - 5.0, b + 5.0
         if hatch:
