@@ -185,3 +185,16 @@ def test_crowded_period_doublings_get_one_label_each_and_none_overlap():
             assert abs(xa - xb) >= 0.08 * (x1 - x0) or abs(ya - yb) >= 0.06 * (y1 - y0) - 1e-12
     near_14 = shown[shown["x"] > 1.37]
     assert len(near_14) <= MAX_STACKED
+
+
+def test_the_a_b_legend_goes_to_the_corner_free_of_points():
+    """Pin B's single Poincaré point in the top right (where the legend used to sit) sends the
+    legend to another corner; points in three corners leave it the empty fourth; with no
+    point at all it stays top right."""
+    from app.views.explorer import free_corner
+
+    lims = ((0.0, 1.0), (0.0, 1.0))
+    assert free_corner(np.array([0.9]), np.array([0.9]), *lims) != "top_right"
+    x, y = np.array([0.9, 0.1, 0.9]), np.array([0.9, 0.9, 0.1])
+    assert free_corner(x, y, *lims) == "bottom_left"
+    assert free_corner(np.zeros(0), np.zeros(0), *lims) == "top_right"
