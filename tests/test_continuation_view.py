@@ -159,3 +159,42 @@ def test_the_cascade_from_the_c_orbit_draws_each_branch_with_a_legend(dash):
     for item in items:
         drawn = item.renderers[0].data_source.data
         assert np.isfinite(np.asarray(drawn["x"], dtype=float)).sum() >= 2
+
+
+def test_crowded_period_doublings_get_one_label_each_and_none_overlap():
+    """The cascade's doublings crowd near Λ = 1.4: each labelled bifurcation gets one label,
+    no two labels overlap (a label's box: 0.08 of the view's width, 0.06 of its height), all
+    lie inside the view, and those with no free row are left out rather than piled up."""
+    import pandas as pd
+
+    from app.views.continuation import MAX_STACKED, mark_labels
+
+    xs = [1.2393959, 1.3764403, 1.4017300, 1.4069375, 1.4080577, 1.4083]
+    marks = pd.DataFrame({"x": xs + xs[1:3], "y": [9.0, 9.5, 9.6, 9.7, 9.75, 9.8, 9.2, 9.3],
+                          "kind": ["period_doubling"] * 8, "label": ["PD"] * 8})
+    limits = ((1.2, 1.45), (0.0, 10.0))
+    left, right = mark_labels(marks, limits)
+    shown = pd.concat([left, right]).dropna()
+    (x0, x1), (y0, y1) = limits
+    assert 1 <= len(shown) <= len(xs)
+    assert shown["x"].round(9).is_unique  # one label per doubling, never two
+    assert shown["x"].between(x0, x1).all() and shown["y"].between(y0, y1).all()
+    rows = list(zip(shown["x"], shown["y"]))
+    for i, (xa, ya) in enumerate(rows):
+        for xb, yb in rows[i + 1:]:
+            assert abs(xa - xb) >= 0.08 * (x1 - x0) or abs(ya - yb) >= 0.06 * (y1 - y0) - 1e-12
+    near_14 = shown[shown["x"] > 1.37]
+    assert len(near_14) <= MAX_STACKED
+
+
+def test_the_a_b_legend_goes_to_the_corner_free_of_points():
+    """Pin B's single Poincaré point in the top right (where the legend used to sit) sends the
+    legend to another corner; points in three corners leave it the empty fourth; with no
+    point at all it stays top right."""
+    from app.views.explorer import free_corner
+
+    lims = ((0.0, 1.0), (0.0, 1.0))
+    assert free_corner(np.array([0.9]), np.array([0.9]), *lims) != "top_right"
+    x, y = np.array([0.9, 0.1, 0.9]), np.array([0.9, 0.9, 0.1])
+    assert free_corner(x, y, *lims) == "bottom_left"
+    assert free_corner(np.zeros(0), np.zeros(0), *lims) == "top_right"

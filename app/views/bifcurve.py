@@ -55,7 +55,11 @@ class CurveView(pn.viewable.Viewer):
                      "a second parameter.")
         self.element = hv.DynamicMap(self._element, streams=[
             hv.streams.Params(self, ["revision"]), hv.streams.Params(self.state, ["result"])])
-        self.pane = HoloViewsPane(self.element, css_classes=["curve-plot"], width=380, height=300)
+        # shown once a curve is traced: before that it would be an empty 0–1 plot
+        self.pane = HoloViewsPane(self.element, css_classes=["curve-plot"], width=380, height=300,
+                                  visible=False)
+        self.param.watch(lambda e: setattr(self.pane, "visible", self.curves is not None),
+                         "revision")
         self.state.param.watch(self._on_click, ["result", "branch"])
         self.state.param.watch(self._update, ["curve_kind", "curve_at", "curve_param2",
                                               "branch"])

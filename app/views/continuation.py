@@ -39,6 +39,8 @@ BRANCH_COLOR = "#6c3483"
 #: One colour per branch: the continued orbit's first, then those started at period doublings.
 BRANCH_COLORS = (BRANCH_COLOR, "#117a65", "#b9770e", "#1a5276", "#922b21")
 STABLE_COLOR, UNSTABLE_COLOR = "#1e8449", "#c0392b"
+#: Most bifurcation labels stacked above one another where their bifurcations crowd.
+MAX_STACKED = 3
 
 
 def swept(state: ExplorerState) -> str:
@@ -146,8 +148,9 @@ def mark_labels(marks: Any, limits: Any) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Where the bifurcation labels go: ``(left-aligned, right-aligned)`` frames of x, y, label.
 
     One label per bifurcation (at its highest impulse); a label whose neighbour on the left is
-    closer than a label's width moves up a row, and labels in the right quarter of the view
-    read leftwards, so none runs out of the plot.
+    closer than a label's width moves up to the first free row, at most :data:`MAX_STACKED`
+    rows, and one that finds no row below the top is left out (its diamond stays, named on
+    hover); labels in the right quarter of the view read leftwards, so none runs out of the plot.
     """
     blank = pd.DataFrame({"x": [np.nan], "y": [np.nan], "label": [""]})
     if marks is None or not len(marks):
@@ -160,11 +163,15 @@ def mark_labels(marks: Any, limits: Any) -> tuple[pd.DataFrame, pd.DataFrame]:
         (x0, x1), (y0, y1) = limits
     dx, dy = max(x1 - x0, 1e-300), max(y1 - y0, 1e-300)
     rows: list[tuple[float, float, str, bool]] = []
-    last_x, level = -np.inf, 0
+    placed: list[tuple[float, float]] = []
     for x, y, label in zip(one["x"], one["y"], one["label"]):
-        level = level + 1 if x - last_x < 0.08 * dx else 0
-        last_x = x
-        yl = min(y + 0.015 * dy + level * 0.06 * dy, y1 - 0.04 * dy)
+        near = [yl for xl, yl in placed if x - xl < 0.08 * dx]
+        yl = y + 0.015 * dy
+        while any(abs(yl - other) < 0.06 * dy for other in near):
+            yl += 0.06 * dy
+        if yl > y1 - 0.04 * dy or len(near) >= MAX_STACKED:
+            continue  # no room: its diamond stays, named on hover, rather than a pile of labels
+        placed.append((float(x), yl))
         rows.append((float(x), float(yl), f" {label} ", x > x0 + 0.75 * dx))
     frame = pd.DataFrame(rows, columns=["x", "y", "label", "right"])
     out = [frame[frame["right"] == side][["x", "y", "label"]] for side in (False, True)]
@@ -231,10 +238,11 @@ class ContinuationView(pn.viewable.Viewer):
         # the buttons wrap in a narrow column instead of running over the multipliers' plot
         buttons = pn.FlexBox(self.button, self.cancel_button, self.clear_button, flex_wrap="wrap",
                              sizing_mode="stretch_width")
-        return pn.Row(
+        # and the multipliers' plot goes below them when the two do not fit side by side
+        return pn.FlexBox(
             pn.Column(buttons, self.why, message(self.state, "continuation"), self.progress,
                       self.status, sizing_mode="stretch_width", min_width=200),
-            self.pane, sizing_mode="stretch_width", css_classes=["continuation"])
+            self.pane, flex_wrap="wrap", sizing_mode="stretch_width", css_classes=["continuation"])
 
     # ----- what to compute ----------------------------------------------------------------------
 

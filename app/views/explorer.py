@@ -173,9 +173,13 @@ class SectionView(pn.viewable.Viewer):
         """Title (the parameters, so a saved PNG carries them) and the save tool's file name."""
         plot.state.name = "section"
         shown = self.state.pinned_result is not None  # the legend names A and B, with a pin only
+        corner = free_corner(np.concatenate([self.points[0], self._pinned_xy[0]]),
+                             np.concatenate([self.points[1], self._pinned_xy[1]]), *self._lims)
         for legend in plot.state.legend:
             if legend.visible != shown:
                 legend.visible = shown
+            if legend.location != corner:  # where it hides none of the points, or the fewest
+                legend.location = corner
         if not self.zoom.user:
             # HoloViews keeps an overlay's first ranges when its layers' limits change
             # (and Bokeh's reset tool returns to the ranges a figure was built with)
@@ -206,6 +210,19 @@ class SectionView(pn.viewable.Viewer):
     def _on_tap(self, x: float | None = None, y: float | None = None, **_: Any) -> None:
         if x is not None and y is not None:
             later(start_from_section, self.state, x, y)
+
+
+def free_corner(x: np.ndarray, y: np.ndarray, xlim: tuple[float, float],
+                ylim: tuple[float, float]) -> str:
+    """The corner of the view (Bokeh's ``"top_right"``, …) whose third of each axis holds the
+    fewest of the points ``x, y``; the top right on a tie."""
+    (x0, x1), (y0, y1) = xlim, ylim
+    fx = (np.asarray(x, float) - x0) / max(x1 - x0, 1e-300)
+    fy = (np.asarray(y, float) - y0) / max(y1 - y0, 1e-300)
+    count = {f"{v}_{h}": int(np.sum((fy > 2 / 3 if v == "top" else fy < 1 / 3)
+                                    & (fx > 2 / 3 if h == "right" else fx < 1 / 3)))
+             for v in ("top", "bottom") for h in ("right", "left")}
+    return min(count, key=lambda k: count[k])  # dicts keep order: top_right wins a tie
 
 
 def start_from_section(state: ExplorerState, x: float, y: float) -> bool:

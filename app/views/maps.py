@@ -3,15 +3,15 @@
 A ``pn.viewable.Viewer`` over the state and the session's map request (:class:`MapSettings`:
 axes, ranges, points, periods, the field shown), whose bounds validate them; the request is
 in the URL beside the state, so a link opened on the Maps tab reopens its map
-(:meth:`MapsView.open_link`). Compute runs
-:func:`rattle_core.store.requests.run_map` as this session's ``map`` job (:mod:`app.work.jobs`): in a worker
-process, bounded in time, cancelled by Cancel, by a new request and when the session ends,
-from the disk cache when the same map ran before. Maps run on the server's cores, or on the
+(:meth:`MapsView.open_link`). Compute runs :func:`rattle_core.store.requests.run_map` as this
+session's ``map`` job (:mod:`app.work.jobs`): in a worker process, bounded in time, cancelled
+by Cancel, by a new request and when the session ends, from the disk cache when it ran before. Maps run on the server's cores, or on the
 Dask scheduler given on the server's command line (``rattle serve --scheduler``,
 :func:`app.work.map_plan.set_scheduler`); no page can choose where the server connects.
 
 The map is a HoloViews ``Image`` whose colours follow the field shown: the regime colours for
 regimes, a log colour bar for the rattle intensity, a linear one for the other quantities.
+It takes the width the controls leave, and goes below them where that is too little.
 A click (``Tap`` stream) sets the state to the clicked grid point (on physical axes, the
 engine speed and drag torque themselves, so Λ and j follow exactly); on a basin map it starts
 the gear there at t = 0. In physical units the default axes are engine speed and drag torque.
@@ -39,6 +39,8 @@ from ..ui.job_panel import JobPanel
 from ..ui.labels import REGIME_COLOR, map_key, map_legend, text_html
 from ..ui.plots import TOOLS, HoloViewsPane, caption, file_stem, key_legend, save_as
 from ..ui.widgets import Choice, Field, message
+
+MAP_HEIGHT, MAP_MIN_WIDTH = 520, 420  # its width: what the controls leave, or below them
 
 class MapsView(pn.viewable.Viewer):
     """The Maps tab of one session."""
@@ -76,7 +78,7 @@ class MapsView(pn.viewable.Viewer):
         self.download = pn.widgets.FileDownload(callback=self._csv, filename="map.csv", label="Map as CSV",
                                                 color="success", disabled=True,
                                                 css_classes=["map-download"], sizing_mode="stretch_width")
-        self.pane = HoloViewsPane(self._plot(), css_classes=["map-plot"])
+        self.pane = HoloViewsPane(self._plot(), css_classes=["map-plot"], sizing_mode="stretch_width")
         # a new colour scale (regimes, log intensity, linear) needs a plot of its own
         m.param.watch(lambda e: setattr(self.pane, "object", self._plot()), "field")
         self._choices = {n: Choice(m, n, {axis_label(a): a for a in self._axes()}, select=True,
@@ -84,8 +86,7 @@ class MapsView(pn.viewable.Viewer):
         self._field = Choice(m, "field", self._fields(), select=True, width=300)
         default = (m.param.x_axis.default, m.param.y_axis.default)
         if self.state.units and m.kind == "regime" and (m.x_axis, m.y_axis) == default:
-            # in physical units a map runs against engine speed and drag torque (unless the
-            # link chose other axes)
+            # in physical units: engine speed and drag torque (unless the link chose other axes)
             self._set_axes("rpm", "drag_torque")
         for a in ("x", "y"):  # a link naming an axis but not its range: the axis's own range
             start, stop = f"{a}_start", f"{a}_stop"
@@ -117,7 +118,8 @@ class MapsView(pn.viewable.Viewer):
             message(self.state, "map-run"), self.progress, self.status,
             pn.pane.HTML(text_html(where, "font-size:12px;color:#555"), css_classes=["map-where"]),
             self.download, self.legend, width=440, margin=(0, 10))
-        return pn.Row(controls, pn.Column(self._field, self.pane), sizing_mode="stretch_width")
+        return pn.FlexBox(controls, pn.Column(self._field, self.pane, sizing_mode="stretch_width",
+                          min_width=MAP_MIN_WIDTH), flex_wrap="wrap", sizing_mode="stretch_width")
 
     # ----- axes -------------------------------------------------------------------------------
 
@@ -299,7 +301,7 @@ class MapsView(pn.viewable.Viewer):
                 save_as(lambda: me._stem)(plot, element)
                 key_legend(plot.state, map_key(me.result, me.settings.field))
         return functools.reduce(lambda a, b: a * b, self.overlays, self.image * self.marker).opts(
-            hv.opts.Overlay(width=640, height=520, hooks=[name_plot]))
+            hv.opts.Overlay(responsive=True, height=MAP_HEIGHT, hooks=[name_plot]))
 
     def add_overlay(self, element: Any) -> None:
         """Draw ``element`` (a DynamicMap of another view) over the map from now on."""

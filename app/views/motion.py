@@ -135,8 +135,8 @@ def motion_figure() -> tuple[Any, dict[str, Any]]:
                          value=np.log10(DEFAULT_SPEED), step=0.01, title="speed", width=220,
                          name="motion_speed", css_classes=["motion-speed"],
                          format=CustomJSTickFormatter(code="return Math.pow(10, tick).toPrecision(2) + '×'")),
-         "clock": Div(text="", name="motion_clock", css_classes=["motion-clock"], width=340,
-                      styles={"font-size": "12px", "color": "#444"})}
+         "clock": Div(text="", name="motion_clock", css_classes=["motion-clock"], width=360,
+                      styles={"font-size": "12px", "color": "#444", "white-space": "nowrap"})}
     args = {"frames": src["frames"], "impacts": src["impacts"], "meta": src["meta"],
             "teeth": src["teeth"], "flash": src["flash"], "speed": w["speed"], "loop": w["loop"],
             "sound": w["sound"], "clock": w["clock"]}
@@ -148,8 +148,10 @@ def motion_figure() -> tuple[Any, dict[str, Any]]:
     w["speed"].js_on_change("value", cb("speed"))
     w["sound"].js_on_change("active", cb("sound"))
     src["frames"].js_on_change("data", cb("data"))
+    # the controls wrap onto a second line where the page is narrow, never past its edge
     layout = column(p, row(w["play"], w["pause"], w["next"], w["loop"], w["sound"], w["speed"],
-                           w["clock"]), sizing_mode="stretch_width")
+                           w["clock"], styles={"flex-wrap": "wrap"}, sizing_mode="stretch_width"),
+                    sizing_mode="stretch_width")
     return layout, {**src, **w, "figure": p}
 
 
