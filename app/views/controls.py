@@ -54,10 +54,14 @@ class Controls(pn.viewable.Viewer):
         s.param.watch(self._follow_phases, "phases")
         self.presets = []
         for label, (desc, _) in PRESETS.items():
-            b = pn.widgets.Button(label=label, description=desc, width=70, margin=(2, 3),
+            # what a preset shows is said under the buttons once loaded: a hover tooltip
+            # stayed over the plots after the click
+            b = pn.widgets.Button(label=label, width=70, margin=(2, 3),
                                   css_classes=[f"preset-{label.replace(' ', '')}"])
             b.on_click(lambda e, label=label: self.apply_preset(label))
             self.presets.append(b)
+        self.preset_note = _note("Each loads the parameters of one of the paper's figures.")
+        self.preset_note.css_classes = ["preset-note"]
         # harmonics beyond the second: add or remove orders
         self.harm_order = pn.widgets.IntInput(label="order k", value=3, start=3, end=32,
                                               sizing_mode="stretch_width")
@@ -97,6 +101,7 @@ class Controls(pn.viewable.Viewer):
         return pn.Column(
             _heading("Paper presets (Figures 2–8)"),
             pn.FlexBox(*self.presets, sizing_mode="stretch_width"),
+            self.preset_note,
             _heading("Parameters"),
             *[self.fields[n] for n in SLIDERS],
             pn.Column(_note("Phases shown in the convention of"), self.phases, message(self.state, "phases"),
@@ -116,6 +121,7 @@ class Controls(pn.viewable.Viewer):
         values = preset_values(s, label)
         s.clear(*values, "global")
         s.param.update(**values)
+        self.preset_note.object = _note(f"{label}: {PRESETS[label][0]}").object
 
     def add_harmonic(self, k: Any, h: Any, phi: Any) -> bool:
         s = self.state
