@@ -60,9 +60,29 @@ def core_bounds(name: str, phases: str, lo: float, hi: float) -> tuple[float, fl
 _named = named_glyph
 
 
-def _legend_entry(number: int, label: str):
+def legend_corner(segments: list[np.ndarray],
+                  limits: tuple[tuple[float, float], tuple[float, float]] | None) -> str:
+    """The corner of the view (``limits``) whose box, a third of the width by a third of the
+    height, holds the fewest points of the branches' polylines ``segments``: the legend's place."""
+    pts = np.concatenate([np.asarray(seg, float).reshape(-1, 2) for seg in segments]
+                         or [np.empty((0, 2))])
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    if limits is None and not len(pts):
+        return "bottom_right"
+    (x0, x1), (y0, y1) = limits or ((pts[:, 0].min(), pts[:, 0].max()), (pts[:, 1].min(), pts[:, 1].max()))
+    wx, wy = (x1 - x0) / 3.0, (y1 - y0) / 3.0
+    boxes = {"bottom_right": (x1 - wx, x1, y0, y0 + wy), "top_right": (x1 - wx, x1, y1 - wy, y1),
+             "bottom_left": (x0, x0 + wx, y0, y0 + wy), "top_left": (x0, x0 + wx, y1 - wy, y1)}
+    x, y = pts[:, 0], pts[:, 1]
+    count = {c: int(((x >= a) & (x <= b) & (y >= lo) & (y <= hi)).sum())
+             for c, (a, b, lo, hi) in boxes.items()}
+    return min(boxes, key=lambda c: count[c])  # ties: the order above
+
+
+def _legend_entry(number: int, label: str, corner: str = "bottom_right"):
     """A HoloViews hook adding the line's renderer to branch ``number``'s entry of the legend
-    ``cont-legend`` (made on first use), labelled ``label`` and hidden when ``label`` is empty.
+    ``cont-legend`` (made on first use), labelled ``label`` and hidden when ``label`` is empty;
+    the legend goes in ``corner`` of the plot (:func:`legend_corner`).
 
     The legend is Bokeh's, not HoloViews': a HoloViews label that changes makes a new renderer
     at every new branch, while these lines keep theirs.
@@ -80,6 +100,8 @@ def _legend_entry(number: int, label: str):
             legend = Legend(name="cont-legend", location="bottom_right", label_text_font_size="8pt",
                             background_fill_alpha=0.6, padding=4, spacing=0, click_policy="hide")
             fig.add_layout(legend)
+        if legend.location != corner:
+            legend.location = corner
         item = next((it for it in legend.items if it.name == f"cont-branch-{number}"), None)
         if item is None:
             item = LegendItem(name=f"cont-branch-{number}", label=value(label), renderers=[])
@@ -117,6 +139,8 @@ def branch_overlay(branch: Branch | None, name: str,
     ok = branch is not None and branch.name == name
     held = branch.numbers if ok else []
     lines = []
+    corner = legend_corner([seg for i in held for stable in (True, False)
+                            for seg in branch.segments(stable, i)], limits) if ok else "bottom_right"
     for i in range(1 + MAX_SWITCHED):
         here = i in held
         label = branch.legend(i) if here else ""
@@ -125,10 +149,10 @@ def branch_overlay(branch: Branch | None, name: str,
         lines += [
             hv.Curve(joined(branch.segments(True, i)) if here else _BLANK, *kdims).opts(
                 color=colour, line_width=2.5,
-                hooks=[_named("cont-stable" + suffix), _legend_entry(i, label)]),
+                hooks=[_named("cont-stable" + suffix), _legend_entry(i, label, corner)]),
             hv.Curve(joined(branch.segments(False, i)) if here else _BLANK, *kdims).opts(
                 color=colour, line_width=2, line_dash="dashed",
-                hooks=[_named("cont-unstable" + suffix), _legend_entry(i, label)])]
+                hooks=[_named("cont-unstable" + suffix), _legend_entry(i, label, corner)])]
     marks = branch.marks[["x", "y", "label", "message"]].reset_index(drop=True) if ok else None
     if marks is None or not len(marks):  # one blank row: Bokeh cannot draw empty text columns
         marks = pd.DataFrame({"x": [np.nan], "y": [np.nan], "label": [""], "message": [""]})
