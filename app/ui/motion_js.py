@@ -11,9 +11,15 @@ around it. The frames are samples of the exact solution that include every impac
 at an impact the drawn gear is the exact one, and in between it cannot cross a tooth: ``x − y``
 and ``y + j − x`` are non-negative at both frames, hence along the segment between them.
 
-The drawn teeth are written into their source in place and repainted with ``change.emit()``;
-the cursor of the time history (the model named ``th_cursor``) and the clock's readout are set
-with ``sync: false``. Bokeh sends neither to the server.
+The drawn teeth and the flash are written into their sources in place (what the page shows,
+read back by the browser tests) and painted from them on a plain ``<canvas>`` laid over the
+figure's frame, on the figure's HTML overlay layer: a frame repaints neither a Bokeh figure nor
+the page's layout. The figure's own teeth and flash renderers are hidden once the canvas is up
+(without it, the sources are repainted by Bokeh as before), and a repaint of the figure (a
+resize, a new run's range) repaints the canvas. The cursor of the time history (the model named
+``th_cursor``, on that figure's overlay layer) moves every third frame while playing, and the
+clock's readout, which changes the page's layout, four times a second; both are set with
+``sync: false``, so Bokeh sends neither to the server.
 
 The geometry mirrors :func:`app.views.motion.teeth_xs`: on the pitch line (height 0.5) the
 active flank of the driving tooth is at ``y``, the idle tooth spans ``[x, x + d]`` and the
@@ -59,6 +65,68 @@ function put(arr, vals) { for (let i = 0; i < vals.length; i++) arr[i] = vals[i]
 
 function speed_of() { return Math.pow(10, speed.value); }
 
+// A plain canvas over the figure's frame, on its HTML overlay layer: the teeth and the flash
+// are painted there each frame, so that a frame repaints neither the figure nor the page.
+function surface() {
+  // the figure's view is looked up once: a search of the page's views each frame costs more
+  // than the frame's painting
+  const S0 = R.surface;
+  if (S0 != null && S0.canvas.isConnected && S0.canvas.parentNode === S0.pv.canvas_view.overlays_el) return S0;
+  const fig = frames.document == null ? null : frames.document.get_model_by_name("motion");
+  const pv = fig == null || window.Bokeh == null || Bokeh.index == null ? null : Bokeh.index.find_one(fig);
+  if (pv == null || pv.canvas_view == null) return null;
+  const host = pv.canvas_view.overlays_el;
+  let S = R.surface;
+  if (S == null || S.pv !== pv || !S.canvas.isConnected || S.canvas.parentNode !== host) {
+    const canvas = document.createElement("canvas");
+    canvas.className = "motion-canvas";
+    canvas.style.cssText = "position:absolute;left:0;top:0;pointer-events:none;";
+    host.appendChild(canvas);
+    S = R.surface = {pv: pv, canvas: canvas, renderers: []};
+    for (const r of fig.renderers)
+      if (r.name == "motion_patches" || r.name == "motion_burst") { S.renderers.push(r); r.setv({visible: false}, {sync: false}); }
+    // a repaint of the figure (a resize, a new run's range) paints the teeth where they now are
+    pv.repainted.connect(() => { if (R.surface === S) paint(); });
+  }
+  return S;
+}
+
+function paint() {
+  const S = surface();
+  if (S == null) { teeth.change.emit(); flash.change.emit(); return; }
+  const pv = S.pv, cv = S.canvas, b = pv.frame.bbox, ratio = window.devicePixelRatio || 1;
+  const W = Math.max(1, Math.round(pv.canvas_view.bbox.width)), H = Math.max(1, Math.round(pv.canvas_view.bbox.height));
+  if (cv.width != Math.round(W * ratio) || cv.height != Math.round(H * ratio)) {
+    cv.width = Math.round(W * ratio); cv.height = Math.round(H * ratio);
+    cv.style.width = `${W}px`; cv.style.height = `${H}px`;
+  }
+  const g = cv.getContext("2d");
+  g.setTransform(ratio, 0, 0, ratio, 0, 0);
+  g.clearRect(0, 0, W, H);
+  const xr = pv.model.x_range, yr = pv.model.y_range;
+  const sx = (v) => b.left + (v - xr.start) / (xr.end - xr.start) * b.width;
+  const sy = (v) => b.top + (1 - (v - yr.start) / (yr.end - yr.start)) * b.height;
+  g.save();
+  g.beginPath(); g.rect(b.left, b.top, b.width, b.height); g.clip();
+  const T = teeth.data;
+  g.lineWidth = 3; g.lineJoin = "miter";
+  for (let i = 0; i < T.xs.length; i++) {
+    const xs = T.xs[i], ys = T.ys[i];
+    if (!isFinite(xs[0])) continue;
+    g.beginPath();
+    for (let m = 0; m < xs.length; m++) { if (m == 0) g.moveTo(sx(xs[m]), sy(ys[m])); else g.lineTo(sx(xs[m]), sy(ys[m])); }
+    g.closePath();
+    g.globalAlpha = 0.85; g.fillStyle = T.fill[i]; g.fill();
+    g.globalAlpha = 1; g.strokeStyle = T.line[i]; g.stroke();
+  }
+  const F = flash.data;
+  if (F.alpha[0] > 0 && isFinite(F.x[0])) {
+    g.globalAlpha = F.alpha[0]; g.fillStyle = F.color[0];
+    g.beginPath(); g.arc(sx(F.x[0]), sy(F.y[0]), 15, 0, 2 * Math.PI); g.fill();
+  }
+  g.restore();
+}
+
 function draw(c, t, now) {
   const [x, y] = at(c, t), d = c.d, k = c.k, yj = y + c.j;
   const xs = teeth.data.xs;
@@ -72,15 +140,16 @@ function draw(c, t, now) {
   lines[0] = alpha > 0 && R.flash_flank > 0 ? c.active : c.tooth;
   lines[1] = alpha > 0 ? colour : c.gear;
   lines[2] = alpha > 0 && R.flash_flank < 0 ? c.reverse : c.tooth;
-  teeth.change.emit();
   const fx = R.flash_flank > 0 ? x : x + d;
   put(flash.data.x, [alpha > 0 ? fx : NaN]);
   put(flash.data.alpha, [alpha]);
   flash.data.color[0] = colour;
-  flash.change.emit();
+  paint();
+  // the cursor repaints the time history's overlay: every third frame is smooth enough to follow
   const cursor = frames.document == null ? null : frames.document.get_model_by_name("th_cursor");
-  if (cursor != null) cursor.setv(cursor.visible ? {location: t} : {location: t, visible: true},
-                                  {sync: false});
+  R.cursor_n = (R.cursor_n ?? 0) + 1;
+  if (cursor != null && (!R.playing || R.cursor_n % 3 == 0 || !cursor.visible))
+    cursor.setv(cursor.visible ? {location: t} : {location: t, visible: true}, {sync: false});
   R.t = t;
   // the readout's text changes the page's layout: a few times a second is enough to read it
   if (R.playing && now - (R.readout ?? -1e9) < 250) return;

@@ -9,9 +9,10 @@ instants included (:func:`motion_frames`), and sends the frames to the browser o
 
 Play, Pause, "Next impact", Loop, the speed and the sound switch are Bokeh widgets whose
 ``CustomJS`` callbacks share one clock (:mod:`app.ui.motion_js`): a ``requestAnimationFrame``
-loop in the page moves the teeth, flashes each impact in its flank's colour and moves a
-cursor along the time history (the ``Span`` named ``th_cursor``), without a message to the
-server per frame. Nothing of the animation is state: it is how the page plays one run.
+loop in the page moves the teeth, flashes each impact in its flank's colour (both painted on a
+plain canvas over this figure, from the sources ``motion_teeth`` and ``motion_flash``) and
+moves a cursor along the time history (the ``Span`` named ``th_cursor``), without a message
+to the server per frame. Nothing of the animation is state: it is how the page plays one run.
 
 Speed: from 0.01× to 1× of real time in physical-units mode (time in ms, the engine's time
 scale), or of one forcing period per second in dimensionless mode. The rattle sound of the
