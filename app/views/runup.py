@@ -113,14 +113,14 @@ class RunupView(pn.viewable.Viewer):
         self.result: dict | None = None
         self.intervals = pd.DataFrame()
         self.onsets: pd.DataFrame | None = None
-        self.rpm_from = pn.widgets.FloatInput(name="rpm from", value=1500.0, step=50.0,
+        self.rpm_from = pn.widgets.FloatInput(label="rpm from", value=1500.0, step=50.0,
                                               css_classes=["gb-runup-from"], width=120)
-        self.rpm_to = pn.widgets.FloatInput(name="rpm to", value=2500.0, step=50.0,
+        self.rpm_to = pn.widgets.FloatInput(label="rpm to", value=2500.0, step=50.0,
                                             css_classes=["gb-runup-to"], width=120)
         self.duration = pn.widgets.FloatInput(
-            name=f"duration [s] ({work.DURATION_RANGE_S[0]:g}–{work.DURATION_RANGE_S[1]:g})",
+            label=f"duration [s] ({work.DURATION_RANGE_S[0]:g}–{work.DURATION_RANGE_S[1]:g})",
             value=5.0, step=1.0, css_classes=["gb-runup-duration"], width=160)
-        self.rundown = pn.widgets.Checkbox(name="also the run-down (hysteresis)", value=False,
+        self.rundown = pn.widgets.Checkbox(label="also the run-down (hysteresis)", value=False,
                                            css_classes=["gb-runup-rundown"])
         self.run_button = pn.widgets.Button(label="Replay the run-up", color="primary",
                                             css_classes=["gb-runup-run"], sizing_mode="stretch_width")

@@ -35,10 +35,11 @@ def check(box: Any, rpm_from: float, rpm_to: float, duration_s: float) -> None:
 
 def _same_box(a: Any, b: Any) -> bool:
     """Whether two gearboxes are the same machine (their targets aside)."""
+    from rattle_core.model.params import canonical_hash
     ca, cb = a.canonical(), b.canonical()
     ca.pop("target", None)
     cb.pop("target", None)
-    return ca == cb
+    return canonical_hash(ca) == canonical_hash(cb)
 
 
 def replay(box: Any, rpm_from: float, rpm_to: float, duration_s: float, rundown: bool = False,
