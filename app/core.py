@@ -56,6 +56,10 @@ from rattle_core.paper.verdict_pictures import designs_png
 from rattle_core.store import verdict_tables
 from rattle_core.store.exports import csv_text
 from rattle_core.analysis.vocabulary import REGIMES as REGIME_WORDS
+from rattle_core.batch.runup import compare as compare_runup
+from rattle_core.model.params import canonical_hash
+from rattle_core.solver.runup import check_run
+from rattle_core.store.runups import cached_runup
 
 #: Regime letter → meaning, for the letters a classification gives.
 REGIMES = {k: v for k, v in REGIME_MEANING.items() if k != "error"}
@@ -83,4 +87,5 @@ __all__ = [
     "DEFAULT_TRANSFER_PA_PER_NS", "Excitation", "Gear", "Gearbox", "SAMPLE_RUNUP", "OrderMap",
     "orders_png", "verdict_png", "cached_verdict", "check_verdict_rpm",
     "Target", "designs_png", "verdict_tables", "csv_text", "REGIME_WORDS", "scaled_drag",
+    "compare_runup", "canonical_hash", "check_run", "cached_runup",
 ]

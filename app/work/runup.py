@@ -23,7 +23,7 @@ DURATION_RANGE_S = (0.1, 120.0)
 
 def check(box: Any, rpm_from: float, rpm_to: float, duration_s: float) -> None:
     """Refuse a request the page cannot run, naming the input and its range (``ValueError``)."""
-    from rattle_core.solver.runup import check_run
+    from ..core import check_run
     lo, hi = DURATION_RANGE_S
     if not (isinstance(duration_s, (int, float)) and lo <= duration_s <= hi):
         raise ValueError(f"duration = {duration_s!r} s is outside the allowed range "
@@ -35,7 +35,7 @@ def check(box: Any, rpm_from: float, rpm_to: float, duration_s: float) -> None:
 
 def _same_box(a: Any, b: Any) -> bool:
     """Whether two gearboxes are the same machine (their targets aside)."""
-    from rattle_core.model.params import canonical_hash
+    from ..core import canonical_hash
     ca, cb = a.canonical(), b.canonical()
     ca.pop("target", None)
     cb.pop("target", None)
@@ -52,9 +52,8 @@ def replay(box: Any, rpm_from: float, rpm_to: float, duration_s: float, rundown:
     there is no comparison), ``signal`` (normalised to 0.99), ``rate``, ``calibration_pa``,
     ``rpm_from``, ``rpm_to``, ``duration_s`` and ``from_cache``.
     """
-    from rattle_core.analysis.sound import normalize
-    from rattle_core.batch.runup import compare
-    from rattle_core.store.runups import cached_runup
+    from ..core import cached_runup, normalize
+    from ..core import compare_runup as compare
     check(box, rpm_from, rpm_to, duration_s)
     steps = 2 if rundown else 1
     report(0, steps)
