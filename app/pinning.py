@@ -30,8 +30,8 @@ import param
 from rattle_core import SolverError
 
 from .physical import physical_of, run_physical
-from .query import Huge, number
-from .state import PHYSICAL_KEYS, RUN_KEYS, ExplorerState, Run, rattle_params, rejection
+from .query import Huge, number, rejection
+from .state import PHYSICAL_KEYS, RUN_KEYS, ExplorerState, Run, rattle_params
 from .ui.labels import short
 from .work.page_run import PageRun, run_kwargs
 from .work.threads import HV_LOCK

@@ -15,7 +15,10 @@ link used to turn the page into a server error.  Here:
   used to overflow the float conversion of that message, leaving the page empty);
 * :func:`readable` splits a query string into the part that can be read and the keys that
   cannot, so the session can say which values it dropped;
-* :func:`install` makes Panel's location use :func:`parse_query` (once per process).
+* :func:`install` makes Panel's location use :func:`parse_query` (once per process);
+* :func:`rejection` words the message beside a control whose value is refused (plain text);
+* :func:`update_query_as_written` and :func:`serialize` write values back into the link,
+  keeping every other key's text as written (``present=true`` stays lowercase).
 """
 from __future__ import annotations
 
@@ -24,6 +27,8 @@ import math
 import re
 import urllib.parse
 from typing import Any
+
+import param
 
 #: Longest query value read, in characters (the longest real one, 32 harmonics, is ~450);
 #: numbers are read whatever their length (:func:`number`).
@@ -122,3 +127,84 @@ def install() -> None:
     """Make Panel's location read every query through :func:`parse_query`."""
     import panel.io.location as location
     location.parse_query = parse_query
+
+
+# ----- what the page says of a refused value, and what it writes back -----------------
+def range_text(state: param.Parameterized, name: str) -> str:
+    """The allowed range of a numeric parameter, e.g. ``(0, 10000]``."""
+    p = state.param[name]
+    lo, hi = p.bounds
+    inc = getattr(p, "inclusive_bounds", (True, True))
+    return f"{'[' if inc[0] else '('}{lo:g}, {hi:g}{']' if inc[1] else ')'}"
+
+
+def rejection(state: param.Parameterized, name: str, value: Any, reason: str = "") -> str:
+    """The message beside control ``name`` when ``value`` is refused (plain text, not HTML)."""
+    p = state.param[name]
+    label = p.label or name
+    kept = getattr(state, name)
+    kept_text = "empty" if kept is None else (f"{kept:g}" if isinstance(kept, float) else str(kept))
+    if isinstance(p, param.Selector):
+        allowed = ", ".join(map(str, p.objects))
+        return f"{label} = {_show(value)} is not allowed; allowed: {allowed}. Kept {kept_text}."
+    if isinstance(p, param.Boolean):
+        return f"{label} = {_show(value)} is not allowed; allowed: true or false. Kept {kept_text}."
+    if isinstance(p, param.Number):
+        whole = "a whole number" if isinstance(p, param.Integer) else "a number"
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            what = f"{label} must be {whole}, got {_show(value)}"
+        elif isinstance(value, Huge) or (isinstance(value, int) and not _fits_float(value)):
+            what = f"{label} = {_show_number(value)} is outside the allowed range"
+        elif not math.isfinite(value):  # before int(), which refuses NaN and infinities
+            what = f"{label} must be finite, got {value!r}"
+        elif isinstance(p, param.Integer) and value != int(value):
+            what = f"{label} = {value!r} must be {whole}"
+        else:
+            shown = int(value) if isinstance(p, param.Integer) else float(value)
+            what = f"{label} = {_show(shown)} is outside the allowed range"
+        return f"{what}; allowed {range_text(state, name)}. Kept {kept_text}."
+    if not reason:
+        try:
+            p._validate(value)
+        except ValueError as exc:
+            reason = str(exc)
+    return f"{label}: {reason or 'not allowed'}. Kept {kept_text or 'empty'}."
+
+
+def _show(value: Any) -> str:
+    from .ui.labels import short
+    return short(value)
+
+
+def _fits_float(value: int) -> bool:
+    """Whether an int converts to a float (``math.isfinite`` of a larger one raises)."""
+    try:
+        float(value)
+    except OverflowError:
+        return False
+    return True
+
+
+def _show_number(value: int | float) -> str:
+    """A number too large for a float, shortened (an int's full text may be refused by
+    Python's limit on the digits it converts)."""
+    if isinstance(value, Huge):
+        return repr(value)
+    digits = math.floor(math.log10(abs(value))) + 1  # log10 takes ints of any size
+    return f"a{' negative' if value < 0 else ''} whole number of about {digits} digits"
+
+
+def update_query_as_written(location: Any, values: dict[str, Any]) -> None:
+    """Set ``values`` (URL text, or values JSON writes) in ``location``'s query; the other
+    keys keep their text as it is."""
+    import json
+    query = dict(urllib.parse.parse_qsl((location.search or "")[1:], keep_blank_values=True))
+    query.update({k: v if isinstance(v, str) else json.dumps(v) for k, v in values.items()})
+    location.search = "?" + urllib.parse.urlencode(query) if query else ""
+
+
+def serialize(obj: param.Parameterized, name: str) -> str:
+    """``obj``'s value of ``name`` as the URL carries it."""
+    import json
+    v = obj.param[name].serialize(getattr(obj, name))
+    return v if isinstance(v, str) else json.dumps(v)

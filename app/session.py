@@ -39,9 +39,9 @@ from .work import jobs as jobs_module
 from .pinning import Pinner, drop_bad_pin
 from .state import (GEARBOX_URL_KEYS, MAP_URL_KEYS, PHYSICAL_KEYS, RUN_KEYS, URL_KEYS,
                     ExplorerState, GearboxSettings, MapSettings,
-                    Run, field_of_error, rattle_params, rejection)
+                    Run, field_of_error, rattle_params)
 from .physical import LinkError, link, run_physical
-from .query import readable
+from .query import readable, rejection, serialize, update_query_as_written
 from .work.page_run import TIME_LIMIT, PageRun, run_kwargs
 from .work.threads import HV_LOCK
 
@@ -272,13 +272,13 @@ class Session:
                 obj.param.update(**good)
                 rejected = [n for n in values if n not in good]
                 if rejected:
-                    location.update_query(**{keys[n]: _serialize(obj, n) for n in rejected})
+                    location.update_query(**{keys[n]: serialize(obj, n) for n in rejected})
             return apply
 
         # Panel's update_query reads the whole link back as Python values and writes them out
         # again, so one slider move turned every present=true into present=True: keep the text
         # of the keys it does not change
-        location.update_query = lambda **values: _update_query_as_written(location, values)
+        location.update_query = lambda **values: update_query_as_written(location, values)
         clean, unreadable = readable(location.search)
         pinless = drop_bad_pin(clean, self.state)
         if unreadable or pinless != clean:  # before Panel reads the link: such a value would fail the whole page
@@ -294,7 +294,7 @@ class Session:
         # the URL shows the state in force: rejected and reverted values corrected, unknown
         # keys dropped
         location.search = "?" + urllib.parse.urlencode(
-            {key: _serialize(obj, name) for obj, keys in self.synced for name, key in keys.items()})
+            {key: serialize(obj, name) for obj, keys in self.synced for name, key in keys.items()})
         self._physical_wins(link)
         self._search_watcher = location.param.watch(self._on_search, "search")
 
@@ -325,7 +325,7 @@ class Session:
                     except Exception:
                         same = False
                     if not same and not (query[key] == "" and getattr(obj, name) is None):
-                        fix[key] = _serialize(obj, name)
+                        fix[key] = serialize(obj, name)
         known = {k for _, keys in self.synced for k in keys.values()}
         unknown = [k for k in query if k not in known]
         if unknown:  # dropped: the URL says what is in force, nothing else
@@ -373,7 +373,7 @@ class Session:
             obj, name = self._owner(key)
             if (name != "url" and value == "" and name not in ("x0", "cont_from", "curve_at")
                     and getattr(obj, name) != ""):
-                obj.say(name, f"URL: {obj.param[name].label} is empty. Kept {_serialize(obj, name)}.")
+                obj.say(name, f"URL: {obj.param[name].label} is empty. Kept {serialize(obj, name)}.")
 
     # ----- teardown -----------------------------------------------------------------------------
 
@@ -397,19 +397,3 @@ class Session:
         with param.parameterized.discard_events(self.state):  # no view redraws a closed page
             self.state.result = None
             self.state.pinned_result = None
-
-
-def _update_query_as_written(location: Any, values: dict[str, Any]) -> None:
-    """Set ``values`` (URL text, or values JSON writes) in ``location``'s query; the other
-    keys keep their text as it is."""
-    import json
-    query = dict(urllib.parse.parse_qsl((location.search or "")[1:], keep_blank_values=True))
-    query.update({k: v if isinstance(v, str) else json.dumps(v) for k, v in values.items()})
-    location.search = "?" + urllib.parse.urlencode(query) if query else ""
-
-
-def _serialize(obj: param.Parameterized, name: str) -> str:
-    """``obj``'s value of ``name`` as the URL carries it."""
-    import json
-    v = obj.param[name].serialize(getattr(obj, name))
-    return v if isinstance(v, str) else json.dumps(v)

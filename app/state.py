@@ -34,7 +34,6 @@ from .core import (AMPLITUDE_RANGE, J_RANGE, LAM_RANGE, MAX_HARMONICS, NOISE_DEF
                    NOISE_RANGE, PHASE_RANGE_DEG, R_RANGE, V_STICK_RANGE,
                    MAX_T0, check_range, core_to_paper_phases, paper_to_core_phases)
 from .core import units as U
-from .query import Huge
 
 _EX = U.example()
 #: Physical ranges, open at their lower end.
@@ -338,70 +337,6 @@ class Run:
     phys: Any  # PhysicalParams while the units mode is on, else None
     phases: str
     ms: float
-
-
-def range_text(state: param.Parameterized, name: str) -> str:
-    """The allowed range of a numeric parameter, e.g. ``(0, 10000]``."""
-    p = state.param[name]
-    lo, hi = p.bounds
-    inc = getattr(p, "inclusive_bounds", (True, True))
-    return f"{'[' if inc[0] else '('}{lo:g}, {hi:g}{']' if inc[1] else ')'}"
-
-
-def rejection(state: param.Parameterized, name: str, value: Any, reason: str = "") -> str:
-    """The message beside control ``name`` when ``value`` is refused (plain text, not HTML)."""
-    p = state.param[name]
-    label = p.label or name
-    kept = getattr(state, name)
-    kept_text = "empty" if kept is None else (f"{kept:g}" if isinstance(kept, float) else str(kept))
-    if isinstance(p, param.Selector):
-        allowed = ", ".join(map(str, p.objects))
-        return f"{label} = {_show(value)} is not allowed; allowed: {allowed}. Kept {kept_text}."
-    if isinstance(p, param.Boolean):
-        return f"{label} = {_show(value)} is not allowed; allowed: true or false. Kept {kept_text}."
-    if isinstance(p, param.Number):
-        whole = "a whole number" if isinstance(p, param.Integer) else "a number"
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            what = f"{label} must be {whole}, got {_show(value)}"
-        elif isinstance(value, Huge) or (isinstance(value, int) and not _fits_float(value)):
-            what = f"{label} = {_show_number(value)} is outside the allowed range"
-        elif not math.isfinite(value):  # before int(), which refuses NaN and infinities
-            what = f"{label} must be finite, got {value!r}"
-        elif isinstance(p, param.Integer) and value != int(value):
-            what = f"{label} = {value!r} must be {whole}"
-        else:
-            shown = int(value) if isinstance(p, param.Integer) else float(value)
-            what = f"{label} = {_show(shown)} is outside the allowed range"
-        return f"{what}; allowed {range_text(state, name)}. Kept {kept_text}."
-    if not reason:
-        try:
-            p._validate(value)
-        except ValueError as exc:
-            reason = str(exc)
-    return f"{label}: {reason or 'not allowed'}. Kept {kept_text or 'empty'}."
-
-
-def _show(value: Any) -> str:
-    from .ui.labels import short
-    return short(value)
-
-
-def _fits_float(value: int) -> bool:
-    """Whether an int converts to a float (``math.isfinite`` of a larger one raises)."""
-    try:
-        float(value)
-    except OverflowError:
-        return False
-    return True
-
-
-def _show_number(value: int | float) -> str:
-    """A number too large for a float, shortened (an int's full text may be refused by
-    Python's limit on the digits it converts)."""
-    if isinstance(value, Huge):
-        return repr(value)
-    digits = math.floor(math.log10(abs(value))) + 1  # log10 takes ints of any size
-    return f"a{' negative' if value < 0 else ''} whole number of about {digits} digits"
 
 
 def rattle_params(state: ExplorerState) -> RattleParams:

@@ -13,6 +13,7 @@ import urllib.parse
 import pytest
 from panel.io.location import Location
 
+from app import query
 from app import state as st
 from app.presets import preset_values
 from app.session import LIVE, Session
@@ -49,7 +50,7 @@ def test_param_refuses_bad_values_and_the_message_names_control_value_and_range(
     with pytest.raises(ValueError):
         setattr(s, name, value)
     assert getattr(s, name) == before
-    assert fragment in st.rejection(s, name, value)
+    assert fragment in query.rejection(s, name, value)
 
 
 def test_bounds_are_the_cores_ranges():

@@ -26,8 +26,9 @@ from panel.io.location import Location
 from app.main import configure
 from app.session import Session
 from app.pinning import PIN_KEYS, PIN_PHYSICAL_KEYS, parse_pin
+from app.query import range_text, rejection
 from app.state import (GEARBOX_URL_KEYS, MAP_URL_KEYS, URL_KEYS, ExplorerState, GearboxSettings,
-                       MapSettings, range_text, rejection)
+                       MapSettings)
 
 configure()
 #: Every URL key: the state's, the Maps tab's settings' and the Gearbox tab's settings'.

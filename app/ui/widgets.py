@@ -2,7 +2,7 @@
 
 Every control writes its parameter through param (whose bounds refuse bad values) and
 follows it back, so a value put back by the session (a run that failed, a link that could
-not follow) shows at once. A refused value leaves :func:`app.state.rejection`'s message
+not follow) shows at once. A refused value leaves :func:`app.query.rejection`'s message
 beside the control and the control at the value kept; a slider's range is never stretched
 by a refused value. Sliders act on ``value_throttled`` (on release), not on every drag event.
 
@@ -17,7 +17,7 @@ from typing import Any
 import panel as pn
 import param
 
-from ..state import rejection
+from ..query import rejection
 from .help import tooltip
 from .labels import message_html
 

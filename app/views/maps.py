@@ -75,7 +75,7 @@ class MapsView(pn.viewable.Viewer):
         self.cancel_button.on_click(lambda e: self.cancel("Cancelled."))
         self.run.say("No map yet: choose the axes and press Compute.")
         self.legend = pn.pane.HTML("", css_classes=["map-legend"], sizing_mode="stretch_width")
-        self.download = pn.widgets.FileDownload(callback=self._csv, filename="map.csv", label="Map as CSV",
+        self.download = pn.widgets.FileDownload(callback=self.csv, filename="map.csv", label="Map as CSV",
                                                 color="success", disabled=True,
                                                 css_classes=["map-download"], sizing_mode="stretch_width")
         self.pane = HoloViewsPane(self._plot(), css_classes=["map-plot"], sizing_mode="stretch_width")
@@ -405,7 +405,4 @@ class MapsView(pn.viewable.Viewer):
 
     def csv(self) -> io.StringIO:
         """The map as the CSV the page offers."""
-        return self._csv()
-
-    def _csv(self) -> io.StringIO:
         return io.StringIO("" if self.result is None else self.result.table().to_csv(index=False))
