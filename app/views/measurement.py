@@ -60,7 +60,7 @@ class MeasurementView(pn.viewable.Viewer):
         self.identity: dict = {}
         #: the bytes last read (``None``: the sample) and their name, read again on a correction
         self.data: bytes | None = None
-        self.name = ""
+        self.file_name = ""
         self.loaded = False
         self._quiet = False
         self.input = pn.widgets.FileInput(accept=".csv,.gz,.txt,.tsv", css_classes=["gb-measurement"],
@@ -74,19 +74,19 @@ class MeasurementView(pn.viewable.Viewer):
         self.detected = pn.pane.HTML("", css_classes=["gb-detected"], sizing_mode="stretch_width")
         self.notices = pn.pane.HTML("", css_classes=["gb-notices"], sizing_mode="stretch_width")
         column = dict(options=[DETECTED], value=DETECTED, sizing_mode="stretch_width")
-        self.time_column = pn.widgets.Select(name="time column", css_classes=["gb-time-column"],
+        self.time_column = pn.widgets.Select(label="time column", css_classes=["gb-time-column"],
                                              **column)
-        self.speed_column = pn.widgets.Select(name="speed column", css_classes=["gb-speed-column"],
+        self.speed_column = pn.widgets.Select(label="speed column", css_classes=["gb-speed-column"],
                                               **column)
-        self.speed_unit = pn.widgets.Select(name="speed unit", options=UNITS, value="",
+        self.speed_unit = pn.widgets.Select(label="speed unit", options=UNITS, value="",
                                             css_classes=["gb-speed-unit"], sizing_mode="stretch_width")
-        self.pulse_column = pn.widgets.Select(name="pulse column", options=[NONE], value=NONE,
+        self.pulse_column = pn.widgets.Select(label="pulse column", options=[NONE], value=NONE,
                                               css_classes=["gb-pulse-column"],
                                               sizing_mode="stretch_width")
-        self.pulses_per_rev = pn.widgets.IntInput(name="pulses per rev", value=1, start=1,
+        self.pulses_per_rev = pn.widgets.IntInput(label="pulses per rev", value=1, start=1,
                                                   end=10_000, css_classes=["gb-ppr"],
                                                   sizing_mode="stretch_width")
-        self.window = pn.widgets.EditableRangeSlider(name="analyse from / to [s]", start=0.0,
+        self.window = pn.widgets.EditableRangeSlider(label="analyse from / to [s]", start=0.0,
                                                      end=1.0, value=(0.0, 1.0), step=1e-3,
                                                      disabled=True, css_classes=["gb-window"],
                                                      sizing_mode="stretch_width")
@@ -193,10 +193,10 @@ class MeasurementView(pn.viewable.Viewer):
             options = {}
         self.data, self.loaded = data, True
         what = "the sample run-up" if data is None else f"the uploaded file ({len(data)} bytes)"
-        self.name = (self.input.filename or "the uploaded file") if data is not None \
+        self.file_name = (self.input.filename or "the uploaded file") if data is not None \
             else "the sample run-up (synthetic)"
         self.panel.submit(object(), work.measurement,
-                          (data, self.orders(), self.settings.rpm_step, self.name, options),
+                          (data, self.orders(), self.settings.rpm_step, self.file_name, options),
                           f"Reading and analysing {what}…", work.MEASUREMENT_JOB_LIMIT,
                           on_done=lambda out: self._measured(out, options),
                           on_error=lambda m: self._failed(work.file_error(m)))
