@@ -5,7 +5,7 @@ Uploaded bytes are untrusted: they are parsed here, in a worker, never in the se
 A measurement has bounds of its own (:data:`MEASUREMENT_SECONDS`, :data:`MEASUREMENT_MAX_ROWS`),
 apart from the compute jobs' limits, and reports its progress. A measurement is written to a temporary file of this module's
 own naming (``rattle-upload-*``), read whole and checked by
-:meth:`rattle_core.measure.orders.OrderMap.from_csv`, and deleted; no name taken from an upload
+:func:`rattle_core.measure.measurement.read_measurement` (the options given), analysed, and deleted; no name taken from an upload
 ever reaches the file system. A gearbox text is parsed with no folder to look in, so it can
 open no file (:meth:`rattle_core.model.gearbox.Gearbox.from_text`).
 """
@@ -303,8 +303,9 @@ def report_html(base: Any, variant: Any, variant_text: str,
                 provenance: dict | None = None) -> str:
     """A self-contained HTML report to hand on: where the numbers come from (the measurement's
     file name and SHA-256, the date in UTC, the version, the settings), the regime legend, the
-    inputs, each gear's ranges and sentence, the target's failing ranges, the pictures (PNG
-    inside the file) and the tables with units.  Every text from a user (gear names, file
+    inputs, how the measurement was read, each gear's ranges and sentence, the target's
+    failing ranges, the pictures (PNG inside the file; the Campbell view from
+    ``provenance["campbell"]``) and the tables with units.  Every text from a user (gear names, file
     names, labels) is escaped."""
     from ..core import REGIME_WORDS, designs_png, orders_png, verdict_png
     from ..core import verdict_tables as vt
