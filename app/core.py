@@ -49,7 +49,10 @@ from rattle_core.batch.gearbox import check_rpm as check_verdict_rpm
 from rattle_core.model.gearbox import (DEFAULT_DURATION_S, DEFAULT_TRANSFER_PA_PER_NS,
                                        Excitation, Gear, Gearbox)
 from rattle_core.measure.orders import SAMPLE_RUNUP, OrderMap
-from rattle_core.paper.drawing import orders_png, verdict_png
+from rattle_core.measure.campbell import campbell
+from rattle_core.measure.measurement import read_measurement
+from rattle_core.measure.sniff import SPEED_UNITS
+from rattle_core.paper.drawing import campbell_png, orders_png, verdict_png
 from rattle_core.store.verdicts import cached_verdict
 from rattle_core.model.target import Target
 from rattle_core.paper.verdict_pictures import designs_png
@@ -85,7 +88,8 @@ __all__ = [
     "CODIM2_MARKERS", "CURVE_STYLES",
     "LOUDNESS_RATE", "loudness", "render", "normalize", "GEARBOX", "DEFAULT_DURATION_S",
     "DEFAULT_TRANSFER_PA_PER_NS", "Excitation", "Gear", "Gearbox", "SAMPLE_RUNUP", "OrderMap",
-    "orders_png", "verdict_png", "cached_verdict", "check_verdict_rpm",
+    "orders_png", "verdict_png", "campbell", "campbell_png", "read_measurement", "SPEED_UNITS",
+    "cached_verdict", "check_verdict_rpm",
     "Target", "designs_png", "verdict_tables", "csv_text", "REGIME_WORDS", "scaled_drag",
     "compare_runup", "canonical_hash", "check_run", "cached_runup",
 ]

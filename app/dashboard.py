@@ -32,6 +32,7 @@ from .views.explorer import RegimeView, SectionView
 from .views.gearbox import GearboxView
 from .views.runup import RunupView
 from .views.maps import MapsView
+from .views.measurement import MeasurementView
 from .views.motion import MotionView
 from .views.noise import NoiseView
 from .views.pin import PinView
@@ -144,7 +145,10 @@ class Dashboard:
         self.curve = _built(CurveView, state=s, jobs=jobs)
         self.maps = _built(MapsView, state=s, jobs=jobs, settings=self.session.map_settings)
         self.atlas = _built(AtlasView, state=s, jobs=jobs, maps=self.maps)
-        self.gearbox = _built(GearboxView, state=s, jobs=jobs, settings=self.session.gearbox_settings)
+        self.measurement = _built(MeasurementView, state=s, jobs=jobs,
+                                  settings=self.session.gearbox_settings)
+        self.gearbox = _built(GearboxView, state=s, jobs=jobs, settings=self.session.gearbox_settings,
+                              measurement=self.measurement)
         self.runup = _built(RunupView, state=s, jobs=jobs, gearbox=self.gearbox)
         self.present = _built(PresentView, state=s, header=self.shell.header)
         with HV_LOCK:  # the views' panels may build HoloViews panes
