@@ -20,6 +20,7 @@ How a session is built (``app.main.create_app`` → :class:`app.dashboard.Dashbo
         sensitivity.SensitivityView    a twin trajectory and its separation from the first
         maps.MapsView                  Maps tab (background maps)
         gearbox.GearboxView            Gearbox tab: a measurement to a verdict (background)
+        measurement.MeasurementView    the Gearbox tab's measurement, orders, Campbell view
     work/    jobs.JobPool and tasks.py: background work in killable worker processes, with
              time limits; branch.py, diagram_data.py: what the continuation and the diagram
              compute and load; threads.py: the plot lock and later() for stream callbacks

@@ -49,13 +49,20 @@ from rattle_core.batch.gearbox import check_rpm as check_verdict_rpm
 from rattle_core.model.gearbox import (DEFAULT_DURATION_S, DEFAULT_TRANSFER_PA_PER_NS,
                                        Excitation, Gear, Gearbox)
 from rattle_core.measure.orders import SAMPLE_RUNUP, OrderMap
-from rattle_core.paper.drawing import orders_png, verdict_png
+from rattle_core.measure.campbell import campbell
+from rattle_core.measure.measurement import read_measurement
+from rattle_core.measure.sniff import SPEED_UNITS
+from rattle_core.paper.drawing import campbell_png, orders_png, verdict_png
 from rattle_core.store.verdicts import cached_verdict
 from rattle_core.model.target import Target
 from rattle_core.paper.verdict_pictures import designs_png
 from rattle_core.store import verdict_tables
 from rattle_core.store.exports import csv_text
 from rattle_core.analysis.vocabulary import REGIMES as REGIME_WORDS
+from rattle_core.batch.runup import compare as compare_runup
+from rattle_core.model.params import canonical_hash
+from rattle_core.solver.runup import check_run
+from rattle_core.store.runups import cached_runup
 
 #: Regime letter → meaning, for the letters a classification gives.
 REGIMES = {k: v for k, v in REGIME_MEANING.items() if k != "error"}
@@ -81,6 +88,8 @@ __all__ = [
     "CODIM2_MARKERS", "CURVE_STYLES",
     "LOUDNESS_RATE", "loudness", "render", "normalize", "GEARBOX", "DEFAULT_DURATION_S",
     "DEFAULT_TRANSFER_PA_PER_NS", "Excitation", "Gear", "Gearbox", "SAMPLE_RUNUP", "OrderMap",
-    "orders_png", "verdict_png", "cached_verdict", "check_verdict_rpm",
+    "orders_png", "verdict_png", "campbell", "campbell_png", "read_measurement", "SPEED_UNITS",
+    "cached_verdict", "check_verdict_rpm",
     "Target", "designs_png", "verdict_tables", "csv_text", "REGIME_WORDS", "scaled_drag",
+    "compare_runup", "canonical_hash", "check_run", "cached_runup",
 ]

@@ -30,7 +30,9 @@ from .views.controls import Controls
 from .views.diagram import DiagramView
 from .views.explorer import RegimeView, SectionView
 from .views.gearbox import GearboxView
+from .views.runup import RunupView
 from .views.maps import MapsView
+from .views.measurement import MeasurementView
 from .views.motion import MotionView
 from .views.noise import NoiseView
 from .views.pin import PinView
@@ -143,7 +145,11 @@ class Dashboard:
         self.curve = _built(CurveView, state=s, jobs=jobs)
         self.maps = _built(MapsView, state=s, jobs=jobs, settings=self.session.map_settings)
         self.atlas = _built(AtlasView, state=s, jobs=jobs, maps=self.maps)
-        self.gearbox = _built(GearboxView, state=s, jobs=jobs, settings=self.session.gearbox_settings)
+        self.measurement = _built(MeasurementView, state=s, jobs=jobs,
+                                  settings=self.session.gearbox_settings)
+        self.gearbox = _built(GearboxView, state=s, jobs=jobs, settings=self.session.gearbox_settings,
+                              measurement=self.measurement)
+        self.runup = _built(RunupView, state=s, jobs=jobs, gearbox=self.gearbox)
         self.present = _built(PresentView, state=s, header=self.shell.header)
         with HV_LOCK:  # the views' panels may build HoloViews panes
             maps_tab = self._arrange()
@@ -155,7 +161,7 @@ class Dashboard:
         self.views = [self.controls, self.units, self.regime, self.pin, self.noise,
                       self.time_history, self.section, self.motion,
                       self.diagram, self.continuation, self.curve, self.sound, self.maps,
-                      self.atlas, self.gearbox, self.sensitivity, self.present]
+                      self.atlas, self.gearbox, self.runup, self.sensitivity, self.present]
         self.diagrams = pn.Column(self.diagram, self.continuation, self.curve,
                                   sizing_mode="stretch_width")
         # while presenting, the explorer's stylesheet lays these two cells side by side
@@ -183,7 +189,8 @@ class Dashboard:
         shell = self.shell
         self.tabs = shell.tabs
         self.tabs.extend([("Explorer", self.explorer), ("Maps", maps_tab),
-                          ("Gearbox", self.gearbox)])
+                          ("Gearbox", pn.Column(self.gearbox, self.runup,
+                                                sizing_mode="stretch_width"))])
         self.tabs.active = TABS.index(s.tab)
         # the active tab is the state's ``tab`` (a URL key): a shared link opens on its tab
         self.tabs.param.watch(self._on_tab, "active")

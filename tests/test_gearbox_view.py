@@ -3,6 +3,8 @@ background, the exports (CSV, an HTML report that escapes what users typed), lis
 uploads refused by size or content."""
 from __future__ import annotations
 
+import html
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -183,3 +185,71 @@ def test_drag_what_if_scales_an_oil_drag_and_the_file_target_is_shown(view):
     assert view.set_target("1000:5,3000:5 sone")
     view._toml_read(work.gearbox_text(OIL_BOX, view.order_map))  # the upload's callback
     assert view.settings.target == "1000:5,3000:5 sone"
+
+
+DAQ = __import__("pathlib").Path(__file__).parent / "data" / "daq_semicolon_decimal_comma.csv"
+
+
+def test_a_semicolon_decimal_comma_upload_shows_what_was_read_and_draws_its_orders(view):
+    """A DAQ export with ``;``, decimal commas and a units row: the card says so in plain
+    text (semicolon, decimal mark ',', its columns, the unit 1/min read as rpm, the rows), the
+    orders and the Campbell view are drawn, and the analysed orders are the ones asked for."""
+    view.measurement.input.filename = "<b>daq</b>.csv"
+    view._on_measurement(type("E", (), {"new": DAQ.read_bytes()})())
+    wait_for(lambda: view.order_map is not None, 180, "the upload's orders")
+    text = view.measurement.detected.object
+    assert "semicolon-separated" in text and "decimal mark &#x27;,&#x27;" in text
+    assert "Zeit" in text and "Drehzahl" in text and "4000 samples" in text
+    assert "<b>" not in text and "<b>daq" not in view.measurement.status.object
+    assert list(view.order_map.orders) == [2.0, 4.0, 6.0]
+    notices = view.measurement.notices.object  # orders 4 and 6 are beyond the 2 kHz sampling
+    assert view.order_map.notices and all(html.escape(n, quote=True) in notices
+                                          for n in view.order_map.notices)
+    assert view.measurement.revision == 1 and view.measurement.campbell is not None
+    np.testing.assert_array_equal(view.measurement.campbell.analysed_orders, [2.0, 4.0, 6.0])
+    overlay = view.measurement.orders_pane.object[()]
+    assert len(overlay) == 3 and overlay.get(0).data.shape[0] == view.order_map.rpm.size
+    mesh = view.measurement.campbell_pane.object[()]
+    assert mesh.get(0).dimension_values(2, flat=False).shape == \
+        view.measurement.campbell.level_db.shape
+
+
+def test_a_corrected_speed_unit_reads_the_same_bytes_again(view):
+    """The DAQ file's speed written in rad/s under a bare ``speed`` header reads as 157 rpm
+    with a warning naming rad/s; choosing rad/s reads the same bytes again: 1500 rpm, the
+    value in the file times 60/(2π), and the card says rad/s converted to rpm."""
+    import math
+    rows = [line.replace(",", ".").split(";") for line in
+            DAQ.read_text(encoding="utf-8-sig").splitlines()[3:] if line.strip()]
+    data = ("time_s,speed\n" + "".join(f"{t},{float(v) * 2 * math.pi / 60:.6f}\n"
+                                        for t, v in rows)).encode()
+    view.settings.harmonics = 1
+    view._on_measurement(type("E", (), {"new": data})())
+    wait_for(lambda: view.measurement.revision == 1, 180, "the upload's orders")
+    assert view.order_map.rpm[0] < 160 and "as rad/s it would be 1500 rpm" in \
+        view.measurement.detected.object
+    assert view.measurement.options() == {}
+    view.measurement.speed_unit.value = "rad/s"
+    wait_for(lambda: view.measurement.revision == 2, 180, "the re-read")
+    assert view.measurement.options() == {"speed_unit": "rad/s"}
+    assert "[rad/s] converted to rpm" in view.measurement.detected.object
+    mean = np.mean([float(v) for _, v in rows])
+    assert abs(view.order_map.rpm[0] - mean) < 1e-3 * mean
+
+
+def test_the_report_holds_the_campbell_view_and_how_the_file_was_read(view):
+    """With a measurement, the verdict's report holds a Campbell image and the reading's facts
+    (separator, decimal mark); without the Campbell data it holds none."""
+    view.settings.harmonics = 1  # the file's 2 kHz resolves order 2 only at its speeds
+    view._on_measurement(type("E", (), {"new": DAQ.read_bytes()})())
+    wait_for(lambda: view.measurement.revision == 1, 180, "the upload's orders")
+    view.settings.param.update(rpm_start=1460.0, rpm_stop=1540.0, rpm_num=2, transient=40,
+                               record=20)  # the file is one bin, about 1500 rpm
+    assert view.run(), view.state.messages
+    wait_for(lambda: view.revision == 1, 300, "the verdict")
+    html = view.report
+    assert "<h2>Campbell view</h2>" in html
+    campbell = html.split("<h2>Campbell view</h2>", 1)[1]
+    assert campbell.lstrip().startswith('<img alt="" style="max-width:100%" src="data:image/png')
+    assert "semicolon-separated" in html and "measurement read as" in html
+    assert work.campbell_html(None) == ""

@@ -1,6 +1,8 @@
 """The Gearbox tab's plots as HoloViews elements: a verdict (and its what-if variant) in, plots out.
 
 * :func:`orders_plot`: each measured order's angular acceleration against engine speed;
+* :func:`campbell_plot`: the measurement's order spectrum against engine speed in dB (a
+  Campbell diagram), the analysed orders marked, so one sees whether they dominate;
 * :func:`regime_plot`: each gear's regime against engine speed (one row per gear), its onset
   marked, the variant's regimes as small squares below the baseline's;
 * :func:`metric_plot`: a column of the verdict (intensity, loudness) against engine speed per
@@ -8,7 +10,8 @@
   for loudness, the target's limit as a red line and the speeds where the gearbox misses it
   shaded.
 
-No session, no widget: the view (:mod:`app.views.gearbox`) wraps them in DynamicMaps.
+No session, no widget: the views (:mod:`app.views.gearbox`,
+:mod:`app.views.measurement`) wrap them in DynamicMaps.
 """
 from __future__ import annotations
 
@@ -47,6 +50,28 @@ def orders_plot(order_map: Any) -> hv.Overlay:
     return hv.Overlay(curves).opts(hv.opts.Curve(**SIZE, line_width=2),
                                    hv.opts.Overlay(title=f"orders of {order_map.source}",
                                                    legend_position="top_left"))
+
+
+def campbell_plot(data: Any) -> hv.Overlay:
+    """A Campbell diagram: orders across, rpm up, the level [dB re 1 rad] as colour (60 dB
+    shown below the peak), each analysed order a dashed white line (empty without data)."""
+    if data is None:
+        return hv.Overlay([hv.QuadMesh(([0.0, 1.0], [0.0, 1.0], np.zeros((2, 2))),
+                                       ["order", "rpm"], "level").relabel("no Campbell view")]
+                          ).opts(hv.opts.QuadMesh(**SIZE))
+    level = np.asarray(data.level_db, dtype=float)
+    top = float(np.nanmax(level)) if np.isfinite(level).any() else 0.0
+    mesh = hv.QuadMesh((np.asarray(data.orders, float), np.asarray(data.rpm, float), level),
+                       [hv.Dimension("order", label="engine order"),
+                        hv.Dimension("rpm", label="engine speed [rpm]")],
+                       hv.Dimension("level", label="angular amplitude [dB re 1 rad]"))
+    marks = [hv.VLine(float(k)).opts(color="white", line_dash="dashed", line_width=1)
+             for k in data.analysed_orders]
+    return hv.Overlay([mesh, *marks]).opts(
+        hv.opts.QuadMesh(**{**SIZE, "height": 320, "tools": [*TOOLS, "hover"]}, cmap="viridis",
+                         colorbar=True, clim=(top - 60.0, top)),
+        hv.opts.Overlay(title=f"Campbell view of {data.source} (analysed orders dashed)",
+                        hooks=[_named("gb_campbell")]))
 
 
 def regime_plot(base: Any, variant: Any) -> hv.Overlay:

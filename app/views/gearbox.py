@@ -1,7 +1,6 @@
 """The Gearbox tab: from a measurement to a verdict, with a what-if variant beside it.
 
-1. **Measurement**: upload the measured shaft's speed (``time_s``, ``speed_rpm``; a size limit)
-   or take the shipped synthetic run-up; the orders against rpm are drawn.
+1. **Measurement**: the card of :mod:`app.views.measurement` (given as ``measurement``).
 2. **Gears**: edit them in a table, or upload a ``GEARBOX.toml`` (it fills the table and the
    excitation settings; a measurement it names is the one shown here, never a server file).
 3. **Verdict**: every gear at every speed in the background (the session's ``gearbox`` job,
@@ -27,11 +26,10 @@ import pandas as pd
 import panel as pn
 import param
 
-from ..core import (Excitation, Gear, Gearbox, Target, check_verdict_rpm, csv_text,
-                    scaled_drag)
+from ..core import Excitation, Gearbox, Target, check_verdict_rpm, scaled_drag
 from ..core import verdict_tables as vt
 from ..state import ExplorerState, GearboxSettings
-from ..ui.gearbox_plots import metric_plot, orders_plot, regime_plot
+from ..ui.gearbox_plots import metric_plot, regime_plot
 from ..ui.job_panel import JobPanel
 from ..ui.labels import text_html
 from ..ui.plots import HoloViewsPane
@@ -46,7 +44,7 @@ DEFAULT_GEARS = pd.DataFrame([
     ["reverse idler", 2.5e-4, 0.030, 0.03, 120.0, 0.65, 0.8, np.nan],
     ["6th", 3e-4, 0.040, 0.08, 60.0, 0.65, 1.3, 0.030]], columns=COLUMNS)
 MAX_GEARS = 12
-PLOTS = ("orders", "regimes", "intensity", "loudness")
+PLOTS = ("regimes", "intensity", "loudness")
 VARIANTS = {"no variant": "none", "drag torque +/- %": "drag", "backlash +/- µm": "backlash",
             "design B (its own gears)": "design"}
 
@@ -59,13 +57,15 @@ class GearboxView(pn.viewable.Viewer):
     #: The tab's request; the session's own (in the URL) on the page.
     settings = param.ClassSelector(class_=GearboxSettings)
     revision = param.Integer(0)
-    orders_revision = param.Integer(0)
+    #: The measurement card (:class:`app.views.measurement.MeasurementView`), sharing settings.
+    measurement = param.Parameter()
 
     def __init__(self, **params: Any):
         super().__init__(**params)
-        if self.settings is None:
-            self.settings = GearboxSettings()
-        self.order_map: Any = None
+        if self.measurement is None:
+            raise TypeError("GearboxView needs its measurement view (measurement=...)")
+        self.settings = self.measurement.settings
+        self._on_measurement = self.measurement._on_upload  # an upload's event
         self.constant: Any = None  # constant orders from an uploaded gearbox file
         # an uploaded file's oil and its gears' drags that the table's one number cannot hold
         # (tables over speed or temperature, the oil model), kept by gear name
@@ -78,7 +78,6 @@ class GearboxView(pn.viewable.Viewer):
         self.variant_text = ""
         self.report = ""
         self.target: Any = None
-        self.identity: dict = {}
         self.table_b = pn.widgets.Tabulator(DEFAULT_GEARS.copy(), show_index=False, height=170,
                                             sizing_mode="stretch_width", css_classes=["gb-gears-b"])
         self.copy_button = pn.widgets.Button(label="Edit a copy as design B",
@@ -90,14 +89,6 @@ class GearboxView(pn.viewable.Viewer):
             css_classes=["gb-target"], sizing_mode="stretch_width")
         self.side_by_side = pn.pane.HTML("", css_classes=["gb-side-by-side"],
                                          sizing_mode="stretch_width")
-        self.measurement_input = pn.widgets.FileInput(accept=".csv,.gz", css_classes=["gb-measurement"],
-                                                      sizing_mode="stretch_width")
-        self.sample_button = pn.widgets.Button(label="Use the sample run-up (synthetic)",
-                                               css_classes=["gb-sample"], sizing_mode="stretch_width")
-        # the measurement's job: progress, Cancel and status (``gb-measure-progress``, ...)
-        self.measure_panel = JobPanel(self.jobs, "gearbox-measure", "gb-measure")
-        self.measure_panel.say("No measurement yet.")
-        self.measure_status = self.measure_panel.status
         self.table = pn.widgets.Tabulator(DEFAULT_GEARS.copy(), show_index=False, height=170,
                                           sizing_mode="stretch_width", css_classes=["gb-gears"])
         self.add_button = pn.widgets.Button(label="Add gear", css_classes=["gb-add"])
@@ -121,15 +112,11 @@ class GearboxView(pn.viewable.Viewer):
         self.report_download = pn.widgets.FileDownload(
             callback=lambda: io.StringIO(self.report), filename="gearbox_report.html",
             label="Report (HTML)", disabled=True, css_classes=["gb-report"], sizing_mode="stretch_width")
-        self.measurement_input.param.watch(self._on_measurement, "value")
         self.toml_input.param.watch(self._on_toml, "value")
         self.toml_b_input.param.watch(self._on_toml_b, "value")
         self.copy_button.on_click(lambda e: self.copy_design())
         self.target_input.param.watch(lambda e: self.set_target(e.new), "value")
         self.settings.param.watch(lambda e: setattr(self.target_input, "value", e.new), "target")
-        self.sample_button.on_click(lambda e: self.measure(None))
-        self.measure_panel.cancel_button.on_click(
-            lambda e: self.measure_panel.stop("Analysis cancelled: the measurement shown is kept."))
         self.add_button.on_click(lambda e: self._add_gear())
         self.remove_button.on_click(lambda e: self._remove_gear())
         self.run_button.on_click(lambda e: self.run())
@@ -137,16 +124,14 @@ class GearboxView(pn.viewable.Viewer):
         self.listen_button.on_click(lambda e: self.listen())
         self.plots = {key: HoloViewsPane(self._plot(key), sizing_mode="stretch_width",
                                          css_classes=[f"gb-{key}-plot"]) for key in PLOTS}
+        # a new measurement replaces the gearbox file's constant orders
+        self.measurement.param.watch(lambda e: setattr(self, "constant", None), "revision")
         # a new verdict may bring other gears, hence other layers: each plot is built afresh
-        self.param.watch(lambda e: self._redraw("orders"), "orders_revision")
-        self.param.watch(lambda e: self._redraw("regimes", "intensity", "loudness"), "revision")
+        self.param.watch(lambda e: self._redraw(), "revision")
 
     def _plot(self, key: str) -> hv.DynamicMap:
         """Plot ``key`` of :data:`PLOTS` as a DynamicMap following this view's results."""
         with HV_LOCK:
-            if key == "orders":
-                return hv.DynamicMap(lambda orders_revision: orders_plot(self.order_map),
-                                     streams=[hv.streams.Params(self, ["orders_revision"])])
             draw = {"regimes": lambda: regime_plot(self.base, self.variant),
                     "intensity": lambda: metric_plot(self.base, self.variant, "intensity",
                                                      "intensity Σ I²/s [N²·s]", logy=True),
@@ -154,8 +139,8 @@ class GearboxView(pn.viewable.Viewer):
                                                     "loudness N5 [sone]")}[key]
             return hv.DynamicMap(lambda revision: draw(), streams=[hv.streams.Params(self, ["revision"])])
 
-    def _redraw(self, *keys: str) -> None:
-        for key in keys:
+    def _redraw(self) -> None:
+        for key in PLOTS:
             self.plots[key].object = self._plot(key)
 
     def __panel__(self):
@@ -164,13 +149,7 @@ class GearboxView(pn.viewable.Viewer):
         def field(name: str, css: str) -> Field:
             return Field(s, name, slider=False, css=css)
         controls = pn.Column(
-            pn.pane.Markdown("**1. Measurement** (`time_s`, `speed_rpm`; up to "
-                             f"{work.MAX_MEASUREMENT_BYTES // 1_000_000} MB)"),
-            self.measurement_input, self.sample_button, message(st, "gearbox-measure"),
-            pn.Row(self.measure_panel.progress, self.measure_panel.cancel_button,
-                   sizing_mode="stretch_width"), self.measure_status,
-            pn.Row(field("engine_order", "gb-order"), field("harmonics", "gb-harmonics"),
-                   field("rpm_step", "gb-rpm-step"), sizing_mode="stretch_width"),
+            self.measurement,
             pn.pane.Markdown("**2. Gears** (edit the table, or upload a GEARBOX.toml)"),
             self.table, pn.Row(self.add_button, self.remove_button), self.toml_input,
             message(st, "gearbox-gears"),
@@ -194,77 +173,25 @@ class GearboxView(pn.viewable.Viewer):
             pn.Row(field("listen_rpm", "gb-listen-rpm"), self.listen_button),
             message(st, "gearbox-listen"), self.listen_status, self.audio,
             width=460, margin=(0, 10))
-        plots = pn.Column(*self.plots.values(), self.side_by_side, sizing_mode="stretch_width")
+        plots = pn.Column(self.measurement.plots(), *self.plots.values(), self.side_by_side,
+                          sizing_mode="stretch_width")
         return pn.Row(controls, plots, sizing_mode="stretch_width")
 
     # ----- the measurement and the gears --------------------------------------------------
 
-    def _orders(self) -> tuple:
-        s = self.settings
-        return tuple(s.engine_order * n for n in range(1, s.harmonics + 1))
-
-    def _upload(self, data: Any, where: str, limit: int) -> bytes | None:
-        """An upload's bytes, or None (with a message beside ``where``) when over ``limit``."""
-        if data is None:
-            return None
-        if len(data) > limit:
-            self.state.say(where, f"the file has {len(data)} bytes; the allowed size is up to "
-                                  f"{limit} bytes ({limit / 1e6:g} MB)")
-            return None
-        self.state.clear(where)
-        return bytes(data)
-
-    def _on_measurement(self, event) -> None:
-        data = self._upload(event.new, "gearbox-measure", work.MAX_MEASUREMENT_BYTES)
-        if data is not None:
-            self.measure(data)
+    @property
+    def order_map(self) -> Any:
+        """The measurement's order map shown (None before one)."""
+        return self.measurement.order_map
 
     def measure(self, data: bytes | None) -> None:
-        """Parse an uploaded measurement (``None``: the sample) in a worker, with progress."""
-        self.state.clear("gearbox-measure")
-        what = "the sample run-up" if data is None else f"the uploaded file ({len(data)} bytes)"
-        name = (self.measurement_input.filename or "the uploaded file") if data is not None \
-            else "the sample run-up (synthetic)"
-        self.measure_panel.submit(object(), work.measurement,
-                                  (data, self._orders(), self.settings.rpm_step, name),
-                                  f"Reading and analysing {what}…", work.MEASUREMENT_JOB_LIMIT,
-                                  on_done=self._measured,
-                                  on_error=lambda m: self._failed("gearbox-measure", self._file_error(m)))
+        """Read and analyse a measurement (``None``: the sample) in the background."""
+        self.measurement.measure(data)
 
-    @staticmethod
-    def _file_error(msg: str) -> str:
-        """A measurement job's failure, told about the file: the pool's own time limit speaks
-        of compute jobs."""
-        if msg.startswith("stopped after"):
-            return (f"the uploaded file took too long to read and analyse (over "
-                    f"{work.MEASUREMENT_SECONDS:g} s, the limit for a measurement on this server); "
-                    "upload a shorter file or choose a wider rpm step")
-        return msg
-
-    def _measured(self, omap: Any) -> None:
-        if isinstance(omap, tuple):  # (the map, the file's name and hash)
-            omap, identity = omap
-            if omap is not None:
-                self.identity = identity
-        if omap is None:  # cancelled
-            return
-        self.order_map, self.constant = omap, None
-        self.measure_status.object = text_html(
-            f"{omap.source}: {omap.rpm.size} rpm bins from {omap.rpm[0]:.0f} to {omap.rpm[-1]:.0f} "
-            f"rpm, orders {', '.join(f'{k:g}' for k in omap.orders)}.")
-        lo, hi = omap.rpm_range
-        step = self.settings.rpm_step  # round speeds, inside the measured range
-        self.settings.param.update(rpm_start=float(math.ceil(lo / step) * step),
-                                   rpm_stop=float(math.floor(hi / step) * step))
-        self.orders_revision += 1
-
-    def _failed(self, where: str, msg: str) -> None:
-        self.state.say(where, msg)
-        if where == "gearbox-measure":
-            self.measure_status.object = text_html("No measurement taken: see the message above.")
+    _file_error = staticmethod(work.file_error)
 
     def _on_toml(self, event) -> None:
-        data = self._upload(event.new, "gearbox-gears", work.MAX_TOML_BYTES)
+        data = self.measurement.upload(event.new, "gearbox-gears", work.MAX_TOML_BYTES)
         if data is None:
             return
         self.jobs.submit("gearbox-toml", work.gearbox_text, (data, self.order_map),
@@ -274,7 +201,7 @@ class GearboxView(pn.viewable.Viewer):
     def _toml_read(self, box: Any) -> None:
         self.oil = box.oil
         self.drags = {g.name: g.drag for g in box.gears if g.drag_torque_Nm is None}
-        self.table.value = pd.DataFrame(_gear_rows(box), columns=COLUMNS)
+        self.table.value = pd.DataFrame(work.gear_rows(box), columns=COLUMNS)
         if self.settings.target in ("", self.file_target):  # what the user typed stays
             self.file_target = "" if box.target is None else vt.target_text(box.target)
             self.set_target(self.file_target)
@@ -283,12 +210,13 @@ class GearboxView(pn.viewable.Viewer):
                                    transfer=box.transfer_pa_per_ns)
         if exc.order_map is None:
             self.constant = exc
-            self.measure_status.object = text_html("Constant orders from the gearbox file.")
+            self.measurement.say("Constant orders from the gearbox file.")
         elif exc.order_map is not self.order_map:
-            self._measured(exc.order_map)
+            self.measurement.campbell = None
+            self.measurement.show(exc.order_map)
 
     def _on_toml_b(self, event) -> None:
-        data = self._upload(event.new, "gearbox-design-b", work.MAX_TOML_BYTES)
+        data = self.measurement.upload(event.new, "gearbox-design-b", work.MAX_TOML_BYTES)
         if data is None:
             return
         self.jobs.submit("gearbox-toml-b", work.gearbox_text, (data, self.order_map),
@@ -296,7 +224,7 @@ class GearboxView(pn.viewable.Viewer):
                          on_error=lambda m: self.state.say("gearbox-design-b", m))
 
     def _toml_b_read(self, box: Any) -> None:
-        self.table_b.value = pd.DataFrame(_gear_rows(box), columns=COLUMNS)
+        self.table_b.value = pd.DataFrame(work.gear_rows(box), columns=COLUMNS)
         self.settings.variant = "design"
 
     def copy_design(self) -> None:
@@ -329,20 +257,7 @@ class GearboxView(pn.viewable.Viewer):
         """The gearbox the tab describes (with the gears of ``table``, default the first);
         ``ValueError`` naming what is wrong."""
         s = self.settings
-        gears = []
-        for i, row in (self.table if table is None else table).value.iterrows():
-            values = {c: row[c] for c in COLUMNS}
-            values["name"] = str(values["name"])
-            dr = values["driver_radius_m"]
-            values["driver_radius_m"] = None if dr is None or (isinstance(dr, float) and math.isnan(dr)) else dr
-            dt = values["drag_torque_Nm"]
-            if (dt is None or (isinstance(dt, float) and math.isnan(dt))) and values["name"] in self.drags:
-                values["drag_torque_Nm"], values["drag"] = None, self.drags[values["name"]]
-            try:
-                gears.append(Gear(**{k: (v if k in ("name", "drag") or v is None else float(v))
-                                     for k, v in values.items()}))
-            except (TypeError, ValueError) as exc:
-                raise ValueError(f"row {i + 1}: {exc}") from None
+        gears = work.gears_of((self.table if table is None else table).value, COLUMNS, self.drags)
         if self.constant is not None:
             exc_ = self.constant
         elif self.order_map is None:
@@ -421,7 +336,8 @@ class GearboxView(pn.viewable.Viewer):
     def provenance(self) -> dict:
         """The measurement's name and hash, and the tab's settings, for the report."""
         s = self.settings
-        out = dict(self.identity)
+        out = dict(self.measurement.identity)
+        out["campbell"] = self.measurement.campbell
         out["settings"] = {"target": s.target or "none", "what-if": self.variant_text or s.variant}
         if s.oil_temp is not None:
             out["settings"]["oil temperature [°C]"] = s.oil_temp
@@ -441,14 +357,10 @@ class GearboxView(pn.viewable.Viewer):
 
     def _done(self, result: tuple) -> None:
         self.base, self.variant, self.report = result
-        onsets = "; ".join(f"{k}: {'from %g rpm' % v if math.isfinite(v) else 'no rattle'}"
-                           for k, v in self.base.onsets.items())
         how = "from the disk cache" if self.base.from_cache else "computed"
-        text = f"Verdict ({how}) — {onsets}."
+        text = f"Verdict ({how}) — {work.onsets_text(self.base.onsets)}."
         if self.variant is not None:
-            text += f" Variant ({self.variant_text}): " + "; ".join(
-                f"{k}: {'from %g rpm' % v if math.isfinite(v) else 'no rattle'}"
-                for k, v in self.variant.onsets.items()) + "."
+            text += f" Variant ({self.variant_text}): {work.onsets_text(self.variant.onsets)}."
         self.run_panel.say(text)
         self.csv_download.disabled = False
         self.report_download.disabled = not self.report
@@ -458,21 +370,7 @@ class GearboxView(pn.viewable.Viewer):
     def side_by_side_frame(self) -> pd.DataFrame:
         """Per gear and for the gearbox: onset, ranges, loudness, dB(A) and pass of the first
         design and, if there is one, the second."""
-        rows = []
-        designs = [("A", self.base)] + ([("B", self.variant)] if self.variant is not None else [])
-        for tag, res in designs:
-            t = vt.frame(res)
-            rng = vt.ranges(res)
-            for name in vt.gear_names(res) + [vt.GEARBOX]:
-                g = t[t["gear"] == name]
-                row = {"gear": name, "design": tag,
-                       "onset [rpm]": res.onsets.get(name, np.nan),
-                       "rattle ranges [rpm]": vt.format_ranges(rng.get(name, [])),
-                       "loudness max [sone]": g["loudness_sone"].max(),
-                       "L_Aeq max [dB(A)]": g["spl_dba"].max(),
-                       "pass": "pass" if g["pass"].astype(bool).all() else "fail"}
-                rows.append(row)
-        return pd.DataFrame(rows)
+        return work.side_by_side(self.base, self.variant)
 
     def side_by_side_html(self) -> str:
         if self.base is None:
@@ -482,15 +380,8 @@ class GearboxView(pn.viewable.Viewer):
                                                   na_rep="—")
 
     def csv(self) -> io.StringIO:
-        """The verdict as CSV; with a second design, both with a ``design`` column and the
-        ``B - A`` rows (:func:`rattle_core.store.verdict_tables.compare_frame`); formulas
-        neutralised."""
-        if self.base is None:
-            return io.StringIO("")
-        if self.variant is None:
-            return io.StringIO(csv_text(vt.frame(self.base).assign(design="baseline")))
-        names = vt.design_names("baseline", self.variant_text)
-        return io.StringIO(csv_text(vt.compare_frame(self.base, self.variant, names)))
+        """The verdict as CSV (:func:`app.work.gearbox.verdict_csv`)."""
+        return io.StringIO(work.verdict_csv(self.base, self.variant, self.variant_text))
 
     # ----- listening ----------------------------------------------------------------------
 
@@ -516,10 +407,3 @@ class GearboxView(pn.viewable.Viewer):
         self.listen_status.object = text_html(
             f"The gearbox at {out['rpm']:g} rpm: {out['sone']:.3g} sone, peak {out['peak_pa']:.3g} Pa "
             "(played normalised).")
-
-
-def _gear_rows(box: Any) -> list[list]:
-    """A gearbox's gears as rows of the gear table."""
-    return [[g.name, g.inertia_kgm2, g.base_radius_m, g.drag_torque_Nm, g.backlash_um,
-             g.restitution, g.speed_ratio, np.nan if g.driver_radius_m is None else g.driver_radius_m]
-            for g in box.gears]

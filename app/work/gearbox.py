@@ -5,7 +5,7 @@ Uploaded bytes are untrusted: they are parsed here, in a worker, never in the se
 A measurement has bounds of its own (:data:`MEASUREMENT_SECONDS`, :data:`MEASUREMENT_MAX_ROWS`),
 apart from the compute jobs' limits, and reports its progress. A measurement is written to a temporary file of this module's
 own naming (``rattle-upload-*``), read whole and checked by
-:meth:`rattle_core.measure.orders.OrderMap.from_csv`, and deleted; no name taken from an upload
+:func:`rattle_core.measure.measurement.read_measurement` (the options given), analysed, and deleted; no name taken from an upload
 ever reaches the file system. A gearbox text is parsed with no folder to look in, so it can
 open no file (:meth:`rattle_core.model.gearbox.Gearbox.from_text`).
 """
@@ -41,19 +41,38 @@ MEASUREMENT_JOB_LIMIT = MEASUREMENT_SECONDS + 30.0
 LISTEN_SECONDS = 2.0
 
 
-def measurement(data: bytes | None, orders: tuple, rpm_step: float, name: str | None = None) -> Any:
+def measurement(data: bytes | None, orders: tuple, rpm_step: float, name: str | None = None,
+                options: dict | None = None) -> Any:
     """The order map of uploaded bytes (``None``: the shipped synthetic run-up), with progress;
     ``None`` when the job is cancelled.  An upload over :data:`MAX_MEASUREMENT_BYTES` or
     :data:`MEASUREMENT_MAX_ROWS`, or one whose analysis outlasts :data:`MEASUREMENT_SECONDS`,
-    is refused with a message about the file.  With ``name`` (the file's name, shown only
-    escaped), the pair ``(map, {"file", "sha256", "bytes"})``."""
+    is refused with a message about the file.  ``options`` are the reading options of
+    :meth:`rattle_core.measure.orders.OrderMap.from_csv` (columns, speed unit, pulses, a time
+    window).  With ``name`` (the file's name, shown only escaped), the triple ``(map,
+    {"file", "sha256", "bytes"}, extra)``: ``extra`` holds the Campbell data (``campbell``,
+    None where the file is too short for one, ``campbell_note`` then says why) and the file's
+    time ``span`` [s] as read."""
     if name is not None:
-        return measurement(data, orders, rpm_step), {"file": str(name)[:200], **file_identity(data)}
-    from ..core import SAMPLE_RUNUP, OrderMap
-    if data is None:
-        return OrderMap.from_csv(SAMPLE_RUNUP, orders, rpm_step, label="the sample run-up (synthetic)",
-                                 progress=report, cancel=cancelled)
-    if len(data) > MAX_MEASUREMENT_BYTES:
+        meas = _measurement(data, orders, rpm_step, options or {})
+        if meas is None:
+            return None
+        omap, raw = meas
+        extra = {"campbell": None, "campbell_note": "",
+                 "span": (float(raw.time_s[0]), float(raw.time_s[-1])) if raw.time_s.size else None}
+        from ..core import campbell
+        try:
+            extra["campbell"] = campbell(raw, omap.orders, omap.rpm_step)
+        except ValueError as exc:
+            extra["campbell_note"] = f"No Campbell view: {exc}."
+        return omap, {"file": str(name)[:200], **file_identity(data)}, extra
+    out = _measurement(data, orders, rpm_step, options or {})
+    return None if out is None else out[0]
+
+
+def _measurement(data: bytes | None, orders: tuple, rpm_step: float, options: dict) -> Any:
+    """``(order map, the measurement read)`` of :func:`measurement`, or None when cancelled."""
+    from ..core import SAMPLE_RUNUP, OrderMap, read_measurement
+    if data is not None and len(data) > MAX_MEASUREMENT_BYTES:
         raise ValueError(f"the uploaded file has {len(data)} bytes; the allowed size is up to "
                          f"{MAX_MEASUREMENT_BYTES} bytes ({MAX_MEASUREMENT_BYTES / 1e6:g} MB)")
     deadline = time.monotonic() + MEASUREMENT_SECONDS
@@ -63,13 +82,23 @@ def measurement(data: bytes | None, orders: tuple, rpm_step: float, name: str | 
         if time.monotonic() > deadline:
             late.append(True)
         return bool(late) or cancelled()
+
+    def analyse(path: Any, label: str, max_rows: int | None) -> tuple:
+        raw = read_measurement(path, label, max_rows, **options)
+        report(1, 10)  # reading is the first tenth of the bar
+
+        def progress(done: int, n: int) -> None:
+            report(n // 10 + done * 9 // 10, n)
+        return OrderMap.from_measurement(raw, orders, rpm_step, progress=progress,
+                                         cancel=stop), raw
+    if data is None:
+        return analyse(SAMPLE_RUNUP, "the sample run-up (synthetic)", None)
     suffix = ".csv.gz" if data[:2] == b"\x1f\x8b" else ".csv"
     fd, path = tempfile.mkstemp(prefix="rattle-upload-", suffix=suffix)
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(data)
-        return OrderMap.from_csv(path, orders, rpm_step, label="the uploaded file",
-                                 progress=report, cancel=stop, max_rows=MEASUREMENT_MAX_ROWS)
+        return analyse(path, "the uploaded file", MEASUREMENT_MAX_ROWS)
     except Exception:
         if late:
             raise ValueError(f"the uploaded file took over {MEASUREMENT_SECONDS:g} s to read and "
@@ -80,6 +109,16 @@ def measurement(data: bytes | None, orders: tuple, rpm_step: float, name: str | 
         raise
     finally:
         os.unlink(path)
+
+
+def file_error(msg: str) -> str:
+    """A measurement job's failure, told about the file: the pool's own time limit speaks
+    of compute jobs."""
+    if msg.startswith("stopped after"):
+        return (f"the uploaded file took too long to read and analyse (over "
+                f"{MEASUREMENT_SECONDS:g} s, the limit for a measurement on this server); "
+                "upload a shorter file or choose a wider rpm step")
+    return msg
 
 
 def gearbox_text(data: bytes, order_map: Any) -> Any:
@@ -118,6 +157,76 @@ def verdicts(gearbox: Any, variant: Any, rpm: np.ndarray, transient: int, record
                                                provenance)
 
 
+def gears_of(table: Any, columns: list, drags: dict) -> tuple:
+    """The gears of a gear table's rows (``drags``: a gear's drag model by name, for a row
+    without a constant drag); ``ValueError`` naming the row."""
+    from ..core import Gear
+
+    def missing(v: Any) -> bool:
+        return v is None or (isinstance(v, float) and math.isnan(v))
+    gears = []
+    for i, row in table.iterrows():
+        values = {c: row[c] for c in columns}
+        values["name"] = str(values["name"])
+        if missing(values["driver_radius_m"]):
+            values["driver_radius_m"] = None
+        if missing(values["drag_torque_Nm"]) and values["name"] in drags:
+            values["drag_torque_Nm"], values["drag"] = None, drags[values["name"]]
+        try:
+            gears.append(Gear(**{k: (v if k in ("name", "drag") or v is None else float(v))
+                                 for k, v in values.items()}))
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"row {i + 1}: {exc}") from None
+    return tuple(gears)
+
+
+def gear_rows(box: Any) -> list[list]:
+    """A gearbox's gears as rows of the gear table."""
+    return [[g.name, g.inertia_kgm2, g.base_radius_m, g.drag_torque_Nm, g.backlash_um,
+             g.restitution, g.speed_ratio, np.nan if g.driver_radius_m is None else g.driver_radius_m]
+            for g in box.gears]
+
+
+def onsets_text(onsets: dict) -> str:
+    """Each gear's onset in words."""
+    return "; ".join(f"{k}: {'from %g rpm' % v if math.isfinite(v) else 'no rattle'}"
+                     for k, v in onsets.items())
+
+
+def side_by_side(base: Any, variant: Any) -> Any:
+    """Per gear and for the gearbox: onset, ranges, loudness, dB(A) and pass of the first
+    design and, if there is one, the second (a DataFrame)."""
+    import pandas as pd
+    from ..core import verdict_tables as vt
+    rows = []
+    designs = [("A", base)] + ([("B", variant)] if variant is not None else [])
+    for tag, res in designs:
+        t = vt.frame(res)
+        rng = vt.ranges(res)
+        for name in vt.gear_names(res) + [vt.GEARBOX]:
+            g = t[t["gear"] == name]
+            rows.append({"gear": name, "design": tag,
+                         "onset [rpm]": res.onsets.get(name, np.nan),
+                         "rattle ranges [rpm]": vt.format_ranges(rng.get(name, [])),
+                         "loudness max [sone]": g["loudness_sone"].max(),
+                         "L_Aeq max [dB(A)]": g["spl_dba"].max(),
+                         "pass": "pass" if g["pass"].astype(bool).all() else "fail"})
+    return pd.DataFrame(rows)
+
+
+def verdict_csv(base: Any, variant: Any, variant_text: str) -> str:
+    """The verdict as CSV (empty without one); with a second design, both with a ``design``
+    column and the ``B - A`` rows (:func:`rattle_core.store.verdict_tables.compare_frame`);
+    formulas neutralised."""
+    from ..core import csv_text
+    from ..core import verdict_tables as vt
+    if base is None:
+        return ""
+    if variant is None:
+        return csv_text(vt.frame(base).assign(design="baseline"))
+    return csv_text(vt.compare_frame(base, variant, vt.design_names("baseline", variant_text)))
+
+
 def file_identity(data: bytes | None) -> dict:
     """The SHA-256 of a measurement's bytes (``None``: the shipped sample's file)."""
     from ..core import SAMPLE_RUNUP
@@ -146,14 +255,24 @@ def sound(gearbox: Any, rpm: float, seconds: float = LISTEN_SECONDS) -> dict:
             "sone": heard.loudness_sone, "peak_pa": float(np.max(np.abs(total))), "rpm": rpm}
 
 
-def campbell_html(order_map: Any) -> str:
-    """The Campbell view of the order analysis, where the order map provides one (a
-    ``campbell_png`` drawing beside ``orders_png``); empty otherwise."""
-    from .. import core
-    draw = getattr(core, "campbell_png", None)
-    if order_map is None or draw is None:
+def campbell_html(data: Any, source: str = "") -> str:
+    """The Campbell view of a measurement (its :func:`rattle_core.measure.campbell.campbell`
+    data, drawn by ``campbell_png``); empty without one."""
+    from ..core import campbell_png
+    if data is None:
         return ""
-    return "<h2>Campbell view</h2>" + _png(draw, order_map, "Campbell view")
+    return "<h2>Campbell view</h2>" + _png(campbell_png, data, f"Campbell diagram of {source}")
+
+
+def measurement_rows(order_map: Any) -> list[tuple[str, str]]:
+    """How a measurement was read (delimiter, decimal mark, columns, unit, rows, duration,
+    sample rate, resampling, warnings) and what its analysis left out, as report rows."""
+    det = getattr(order_map, "detected", None)
+    rows = [] if det is None else [("measurement read as", "; ".join(det.describe()))]
+    notices = tuple(getattr(order_map, "notices", ()) or ())
+    if notices:
+        rows.append(("orders left out", "; ".join(notices)))
+    return rows
 
 
 def _png(draw, *args, **kwargs) -> str:
@@ -184,8 +303,9 @@ def report_html(base: Any, variant: Any, variant_text: str,
                 provenance: dict | None = None) -> str:
     """A self-contained HTML report to hand on: where the numbers come from (the measurement's
     file name and SHA-256, the date in UTC, the version, the settings), the regime legend, the
-    inputs, each gear's ranges and sentence, the target's failing ranges, the pictures (PNG
-    inside the file) and the tables with units.  Every text from a user (gear names, file
+    inputs, how the measurement was read, each gear's ranges and sentence, the target's
+    failing ranges, the pictures (PNG inside the file; the Campbell view from
+    ``provenance["campbell"]``) and the tables with units.  Every text from a user (gear names, file
     names, labels) is escaped."""
     from ..core import REGIME_WORDS, designs_png, orders_png, verdict_png
     from ..core import verdict_tables as vt
@@ -216,7 +336,7 @@ def report_html(base: Any, variant: Any, variant_text: str,
         ("measurement file", prov.get("file", source)),
         ("measurement SHA-256", prov.get("sha256", "none (constant orders)")),
         ("date (UTC)", datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")),
-        ("rattle-explorer version", ver), *settings.items()))
+        ("rattle-explorer version", ver), *measurement_rows(exc.order_map), *settings.items()))
     legend = "".join(f"<tr><td><b>{esc(r.letter)}</b></td><td>{esc(r.meaning)}</td></tr>"
                      for r in REGIME_WORDS)
     parts = [
@@ -243,7 +363,7 @@ def report_html(base: Any, variant: Any, variant_text: str,
                                for n, r in fails.items()) + "</ul>")
     if exc.order_map is not None:
         parts.append("<h2>Measured orders</h2>" + _png(orders_png, exc.order_map, f"orders of {source}"))
-        parts.append(campbell_html(exc.order_map))
+        parts.append(campbell_html(prov.get("campbell"), source))
     parts.append("<h2>Verdict</h2>" + _png(verdict_png, base, "baseline"))
     designs = [(base, "A")] + ([(variant, "B")] if variant is not None else [])
     parts.append("<h2>Loudness" + (" of both designs (B dashed)" if variant is not None else "")

@@ -66,7 +66,7 @@ from .signing import secret
 DEFAULT_SIZE_MB = 1024
 SIZE_MB_RANGE = (0.0, 1.0e7)
 #: File-name prefixes of cache entries; nothing else in the directory is ever deleted.
-PREFIXES = ("sweep", "map", "cont", "gearbox", "atlas")
+PREFIXES = ("sweep", "map", "cont", "gearbox", "atlas", "runup")
 _SWEEP_SETTINGS = ("transient", "record", "mode", "x0", "v0")
 _MAP_SETTINGS = ("transient", "record", "x0", "v0", "decimals")
 #: What every sweep and map entry must hold (basins also ``f_attractor``).
