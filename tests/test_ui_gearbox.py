@@ -117,3 +117,21 @@ def test_an_upload_up_to_the_limit_draws_its_orders_and_one_over_is_refused(page
     expect(status).to_contain_text("sample run-up", timeout=120_000)
     assert errors == []
     assert dashboard_server["log"].tracebacks() == []
+
+
+def test_a_semicolon_decimal_comma_upload_shows_what_was_read_and_draws_its_orders(page,
+                                                                                   dashboard_server):
+    """A DAQ export (``;`` delimiter, decimal commas, a units row, German headers) uploaded
+    through Chromium: the card says how it was read, as text, and the orders are drawn."""
+    from pathlib import Path
+    daq = Path(__file__).parent / "data" / "daq_semicolon_decimal_comma.csv"
+    errors = open_dashboard(page, dashboard_server)
+    page.locator(".bk-tab", has_text="Gearbox").first.click()
+    page.locator(".gb-measurement input[type=file]").first.set_input_files(str(daq))
+    detected = page.locator(".gb-detected").first
+    expect(detected).to_contain_text("semicolon-separated", timeout=300_000)
+    expect(detected).to_contain_text("decimal mark ','")
+    expect(detected).to_contain_text("Drehzahl")
+    page.wait_for_function(f"() => ({UPLOADED_ORDERS})() >= 1", timeout=120_000)
+    assert errors == []
+    assert dashboard_server["log"].tracebacks() == []
