@@ -13,8 +13,8 @@ import urllib.parse
 import pytest
 from panel.io.location import Location
 
-from app import query
 from app import state as st
+from app.query import rejection
 from app.presets import preset_values
 from app.session import LIVE, Session
 from rattle_core import RattleParams, classify, simulate, units
@@ -50,7 +50,7 @@ def test_param_refuses_bad_values_and_the_message_names_control_value_and_range(
     with pytest.raises(ValueError):
         setattr(s, name, value)
     assert getattr(s, name) == before
-    assert fragment in query.rejection(s, name, value)
+    assert fragment in rejection(s, name, value)
 
 
 def test_bounds_are_the_cores_ranges():
