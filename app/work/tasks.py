@@ -26,6 +26,13 @@ def warm_up() -> None:
     simulate(RattleParams(lam=3.3, amplitudes=(1.0, 0.25), phases_deg=(0.0, 45.0)), periods=5,
              transient=2)
     diagram(RattleParams(lam=2.0), "lam", np.array([2.0, 2.5]), 2, 2, use_cache=False)
+    # a small upload's reading, order analysis and Campbell data: compiled here, not against
+    # the first measurement's time limit
+    from .gearbox import measurement
+    t = np.arange(0.0, 2.0, 1.0 / 4000.0)
+    rpm = 1500.0 + 50.0 * np.sin(2.0 * np.pi * t)
+    text = "time_s,speed_rpm\n" + "\n".join(f"{a:.6f},{b:.4f}" for a, b in zip(t, rpm))
+    measurement(text.encode(), (2.0,), 100.0, "warm-up")
 
 
 def diagram(params: RattleParams, name: str, values: np.ndarray, transient: int, record: int,
