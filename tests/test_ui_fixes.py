@@ -76,6 +76,20 @@ def compute_map(page, nx: int, ny: int) -> None:
     painted(page)
 
 
+def settled(page) -> None:
+    """Wait until the map's frame stops moving: the map takes the width its controls leave, so
+    a colour bar that comes or goes re-lays it out over a few frames."""
+    page.locator(".map-plot").first.scroll_into_view_if_needed()
+    last = None
+    for _ in range(600):  # a condition, polled frame by frame; 600 frames is ten seconds at 60/s
+        painted(page)
+        now = fig(page, "map_figure", 0.0, 0.0)
+        if now == last:
+            return
+        last = now
+    raise AssertionError(f"the map's frame kept moving: {last}")
+
+
 def test_intensity_map_pixels_follow_its_colour_bar(page, dashboard_server):
     """Fix 1: every cell of an intensity map is painted the colour bar's colour of its value."""
     open_dashboard(page, dashboard_server)
@@ -84,7 +98,7 @@ def test_intensity_map_pixels_follow_its_colour_bar(page, dashboard_server):
     log_map = f"() => {{ const m = ({MAP_IMAGE})(); return m != null && m.kind === 'LogColorMapper'; }}"
     select.select_option(label="rattle intensity Σ Ĩ² per period")
     page.wait_for_function(log_map, timeout=30_000)
-    painted(page)
+    settled(page)
     m = page.evaluate(MAP_IMAGE)
     ny, nx = m["shape"]
     values = np.array(m["values"], dtype=float).reshape(ny, nx)
