@@ -174,7 +174,8 @@ def test_statuses_speak_plainly_and_continue_says_why_it_is_off(page, dashboard_
     dash = max(dashboard_module.LIVE, key=lambda d: d.session.key)
     bifurcations = len(dash.state.branch.marks.drop_duplicates(["kind", "x"]))
     drawn = [t for t in page.evaluate(TEXTS, "bifurcation") if "rattle" not in t and "chaos" not in t]
-    assert bifurcations >= 1 and len(drawn) == bifurcations, drawn  # once each, not per impact
+    # at most once each, never once per impact; crowded ones are thinned (their diamonds stay)
+    assert bifurcations >= 1 and 1 <= len(drawn) <= bifurcations, drawn
 
 
 def test_units_table_reads_one_line_per_row(page, dashboard_server):
