@@ -27,7 +27,7 @@ def test_link_with_physical_units_restores_the_mode(page, dashboard_server):
     assert float(rpm_box.input_value()) == 2000.0
     assert float(page.locator(".ctl-inertia input.bk-input").first.input_value()) == 3e-4
     expect(page.locator(".units-table table.units-params").first).to_contain_text("2000 rpm")
-    page.wait_for_function("() => window.location.search.includes('units=1')", timeout=10_000)
+    page.wait_for_function("() => window.location.search.includes('units=1')", timeout=120_000)  # a loaded machine writes the URL late
     assert "rpm=2000" in page.url and "C=0.03" in page.url
     assert page.locator(".msg-global").first.is_hidden()
     assert not [e for e in errors if "Error" in e]
