@@ -64,11 +64,11 @@ from typing import Any, Callable
 import numpy as np
 from numba import njit
 
-from .checks import RPM_RANGE, check_range
+from ..checks import RPM_RANGE, check_range
 from .measurement import read_measurement
 from .pulses import PULSES_PER_CYCLE, averaging_gain
 from .read import MAX_BYTES, MAX_ROWS, _check_size, _header, read_speed_csv
-from .sampling import GAP_FACTOR, regularise
+from .sampling import regularise
 
 #: Samples required per cycle of the highest order analysed.
 MIN_SAMPLES_PER_CYCLE = 20

@@ -13,9 +13,9 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from ..checks import RPM_RANGE  # noqa: F401  (rev/min, open at 0)
 from .params import check_range
 
-RPM_RANGE = (0.0, 1.0e5)             # rev/min, open at 0
 ORDER_RANGE = (0.0, 100.0)           # excitation cycles per revolution, open at 0
 
 

@@ -12,7 +12,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import math
 import numbers
 import re
 from collections.abc import Iterator, Mapping, Set
@@ -20,6 +19,7 @@ from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 
+from ..checks import check_range  # noqa: F401  (re-exported: the model's range check)
 from .phases import paper_to_core_phases
 
 #: Allowed ranges, shared by validation messages, the CLI and the dashboard's widgets.
@@ -35,38 +35,6 @@ NOISE_RANGE = (0.0, 0.5)
 #: by rounding survives it.
 NOISE_DEFAULT = 1e-12
 MAX_HARMONICS = 32
-
-
-def _finite(name: str, value: Any, allowed: str = "", text_ok: bool = False) -> float:
-    where = f"; the allowed range is {allowed}" if allowed else ""
-    # a bool, or text where a number is due, is a mistake even though float() would take it
-    if isinstance(value, (bool, np.bool_)) or (not text_ok and isinstance(value, (str, bytes))):
-        raise ValueError(f"{name} must be a real number, got {value!r}{where}")
-    try:
-        v = float(value)
-    except (TypeError, ValueError, OverflowError):
-        raise ValueError(f"{name} must be a real number, got {value!r:.40}{where}") from None
-    if not math.isfinite(v):
-        raise ValueError(f"{name} must be finite, got {v!r}{where}")
-    return v
-
-
-def check_range(name: str, value: Any, lo: float, hi: float, *, lo_open: bool = False,
-                hi_open: bool = False, text_ok: bool = False) -> float:
-    """Return ``value`` as a float, or raise ``ValueError`` naming ``name``, the value and its range.
-
-    ``text_ok`` accepts a numeric string (a form field or a URL value); otherwise text and
-    bools are refused, since ``float('3.3')`` and ``float(True)`` hide a caller's mistake.
-    """
-    left = "(" if lo_open else "["
-    right = ")" if hi_open else "]"
-    allowed = f"{left}{lo:g}, {hi:g}{right}"
-    v = _finite(name, value, allowed, text_ok)
-    below = v <= lo if lo_open else v < lo
-    above = v >= hi if hi_open else v > hi
-    if below or above:
-        raise ValueError(f"{name} = {v!r} is outside the allowed range {allowed}")
-    return v
 
 
 def check_int(name: str, value: Any, lo: int, hi: int) -> int:

@@ -1,7 +1,8 @@
-"""Checks of the numbers a measurement is read and analysed with: each bad value raises
-``ValueError`` naming the parameter, the value and the allowed range.
+"""The range check every layer uses: a bad number raises ``ValueError`` naming the parameter,
+the value and the allowed range.
 
-This layer sits below the model, so it keeps its own copy of the model's range check.
+It sits below all of ``rattle_core``'s layers (with ``jitcache``), so the measurement layer,
+the lowest, and the model share one check; ``rattle_core.model.params`` re-exports it.
 """
 from __future__ import annotations
 
@@ -30,7 +31,11 @@ def _finite(name: str, value: Any, allowed: str = "", text_ok: bool = False) -> 
 
 def check_range(name: str, value: Any, lo: float, hi: float, *, lo_open: bool = False,
                 hi_open: bool = False, text_ok: bool = False) -> float:
-    """Return ``value`` as a float, or raise ``ValueError`` naming ``name``, the value and its range."""
+    """Return ``value`` as a float, or raise ``ValueError`` naming ``name``, the value and its range.
+
+    ``text_ok`` accepts a numeric string (a form field or a URL value); otherwise text and
+    bools are refused, since ``float('3.3')`` and ``float(True)`` hide a caller's mistake.
+    """
     left = "(" if lo_open else "["
     right = ")" if hi_open else "]"
     allowed = f"{left}{lo:g}, {hi:g}{right}"
