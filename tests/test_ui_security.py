@@ -122,9 +122,6 @@ def closed_session_survivors(browser, server, keep: list | None = None) -> list[
     return [type(r()).__name__ for r in refs if r() is not None]
 
 
-@pytest.mark.xfail(reason="a closed page's dashboard stays alive since the Gearbox tab's measurement "
-                          "card and the presentation views were added; the holder is not yet found",
-                   strict=False)
 def test_a_closed_session_is_collected_at_the_next_collection(browser, dashboard_server):
     """Once the server has destroyed a closed page's session, one ``gc.collect()`` frees its
     dashboard, session, state, template, a view and its Bokeh document: nothing of the server

@@ -86,7 +86,8 @@ class MeasurementView(pn.viewable.Viewer):
         self.pulses_per_rev = pn.widgets.IntInput(label="pulses per rev", value=1, start=1,
                                                   end=10_000, css_classes=["gb-ppr"],
                                                   sizing_mode="stretch_width")
-        self.window = pn.widgets.EditableRangeSlider(label="analyse from / to [s]", start=0.0,
+        # a RangeSlider: Panel's EditableRangeSlider kept a closed page's whole session alive
+        self.window = pn.widgets.RangeSlider(label="analyse from / to [s]", start=0.0,
                                                      end=1.0, value=(0.0, 1.0), step=1e-3,
                                                      disabled=True, css_classes=["gb-window"],
                                                      sizing_mode="stretch_width")
