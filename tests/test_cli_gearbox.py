@@ -11,33 +11,11 @@ import pytest
 from rattle_cli.commands.gearbox import GRID_STEPS, round_grid
 from rattle_cli.main import main
 from rattle_core.model.gearbox import Gearbox
+from gearboxes import SAMPLE_TWO_GEARS
 
 pytestmark = pytest.mark.timeout(600)
 
-TOML = """
-[excitation]
-measurement = "sample"
-engine_order = 2
-harmonics = 3
-
-[sound]
-duration_s = 0.2
-
-[[gear]]
-name = "5th idler"
-inertia_kgm2 = 4e-4
-base_radius_m = 0.035
-drag_torque_Nm = 0.05
-backlash_um = 80
-
-[[gear]]
-name = "reverse idler"
-inertia_kgm2 = 2.5e-4
-base_radius_m = 0.03
-drag_torque_Nm = 0.03
-backlash_um = 120
-speed_ratio = 0.8
-"""
+TOML = SAMPLE_TWO_GEARS
 FAST = ["--transient", "60", "--record", "30", "--runs", "0"]
 
 

@@ -12,6 +12,7 @@ from rattle_core import RattleParams, simulate
 from rattle_core.analysis.loudness import (SKIP_S, loudness, loudness_zwtv, sharpness_din,
                                            sharpness_din_tv)
 from rattle_core.analysis.sound import synthesize
+from gearboxes import SAMPLE_TWO_GEARS
 
 FS = 48_000
 RTOL = 1e-9
@@ -142,30 +143,7 @@ def test_verdict_on_threads_equals_the_serial_verdict():
 
     from rattle_core.batch.gearbox import GEARBOX, verdict
     from rattle_core.model.gearbox import Gearbox
-    box = Gearbox.from_text("""
-[excitation]
-measurement = "sample"
-engine_order = 2
-harmonics = 3
-
-[sound]
-duration_s = 0.2
-
-[[gear]]
-name = "5th idler"
-inertia_kgm2 = 4e-4
-base_radius_m = 0.035
-drag_torque_Nm = 0.05
-backlash_um = 80
-
-[[gear]]
-name = "reverse idler"
-inertia_kgm2 = 2.5e-4
-base_radius_m = 0.03
-drag_torque_Nm = 0.03
-backlash_um = 120
-speed_ratio = 0.8
-""")
+    box = Gearbox.from_text(SAMPLE_TWO_GEARS)
     rpm = np.linspace(1200.0, 3000.0, 7)
     kw = dict(transient=120, record=40, chunk_speeds=3, ensemble_runs=2)
     serial = verdict(box, rpm, threads=1, **kw).table

@@ -16,32 +16,9 @@ from rattle_core.model.gearbox import Gearbox
 from rattle_core.measure.orders import SAMPLE_RUNUP, OrderMap
 from rattle_core.model.target import Target
 from rattle_core.store.verdicts import load_verdict, save_verdict
+from gearboxes import SAMPLE_TWO_GEARS_DRIVEN
 
-TWO_GEARS = """
-[excitation]
-measurement = "sample"
-engine_order = 2
-harmonics = 3
-
-[sound]
-duration_s = 0.2
-
-[[gear]]
-name = "5th idler"
-inertia_kgm2 = 4e-4
-base_radius_m = 0.035
-drag_torque_Nm = 0.05
-backlash_um = 80
-
-[[gear]]
-name = "reverse idler"
-inertia_kgm2 = 2.5e-4
-base_radius_m = 0.03
-drag_torque_Nm = 0.03
-backlash_um = 120
-speed_ratio = 0.8
-driver_radius_m = 0.028
-"""
+TWO_GEARS = SAMPLE_TWO_GEARS_DRIVEN
 
 TARGET = Target((1000.0, 3000.0), {"sone": (8.0, 22.0), "dba": (55.0, 72.0)})
 
