@@ -27,3 +27,5 @@ speed_ratio = 0.8
 """
 #: The same, the reverse idler driven by a smaller gear than itself.
 SAMPLE_TWO_GEARS_DRIVEN = SAMPLE_TWO_GEARS + "driver_radius_m = 0.028\n"
+#: The same two gears with the default sound settings (0.5 s analysed per point).
+SAMPLE_TWO_GEARS_DEFAULT_SOUND = SAMPLE_TWO_GEARS.replace("[sound]\nduration_s = 0.2\n\n", "")

@@ -15,6 +15,7 @@ from rattle_core import classify, simulate
 from rattle_core.model.gearbox import Excitation, Gear, Gearbox
 from rattle_core.measure.orders import SAMPLE_RUNUP, OrderMap
 from rattle_core.solver.runup import RUNUP_PERIOD_BUDGET, replay, runup_wall
+from gearboxes import SAMPLE_TWO_GEARS_DEFAULT_SOUND
 
 STEADY = """
 [excitation]
@@ -211,27 +212,7 @@ def test_refusals_name_the_range_and_the_budget(sample_box):
         replay(sample_box, 0, 1000.0, 2000.0, 0.0)
 
 
-CLI_TOML = """
-[excitation]
-measurement = "sample"
-engine_order = 2
-harmonics = 3
-
-[[gear]]
-name = "5th idler"
-inertia_kgm2 = 4e-4
-base_radius_m = 0.035
-drag_torque_Nm = 0.05
-backlash_um = 80
-
-[[gear]]
-name = "reverse idler"
-inertia_kgm2 = 2.5e-4
-base_radius_m = 0.03
-drag_torque_Nm = 0.03
-backlash_um = 120
-speed_ratio = 0.8
-"""
+CLI_TOML = SAMPLE_TWO_GEARS_DEFAULT_SOUND
 
 
 def test_cli_runup_writes_every_impact_and_the_sound(tmp_path, capsys):

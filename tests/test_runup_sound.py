@@ -19,31 +19,12 @@ from rattle_core.batch.runup import (GAP_PERIODS, compare, gearbox_runup, rattle
 from rattle_core.model.drag import Drag
 from rattle_core.model.gearbox import Excitation, Gear, Gearbox
 from rattle_core.solver.runup import replay
+from gearboxes import SAMPLE_TWO_GEARS_DEFAULT_SOUND
 
 GEARS = (Gear("5th idler", 4e-4, 0.035, 0.05, 80.0, 0.65),
          Gear("reverse idler", 2.5e-4, 0.03, 0.03, 120.0, 0.65, speed_ratio=0.8))
 
-CLI_TOML = """
-[excitation]
-measurement = "sample"
-engine_order = 2
-harmonics = 3
-
-[[gear]]
-name = "5th idler"
-inertia_kgm2 = 4e-4
-base_radius_m = 0.035
-drag_torque_Nm = 0.05
-backlash_um = 80
-
-[[gear]]
-name = "reverse idler"
-inertia_kgm2 = 2.5e-4
-base_radius_m = 0.03
-drag_torque_Nm = 0.03
-backlash_um = 120
-speed_ratio = 0.8
-"""
+CLI_TOML = SAMPLE_TWO_GEARS_DEFAULT_SOUND
 
 
 @pytest.fixture(scope="module")
