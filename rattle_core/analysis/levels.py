@@ -128,10 +128,16 @@ def level(pressure_pa: np.ndarray, fs: float, *, skip_s: float = 0.05) -> Level:
     if not (isinstance(fs, (int, float)) and math.isfinite(fs) and fs > 0):
         raise ValueError(f"fs must be a positive sample rate [Hz], got {fs!r}")
     pa = a_weighted(p, fs)
-    p2 = pa * pa
+    return level_of_power(pa * pa, fs, skip_s=skip_s)
+
+
+def level_of_power(pa2: np.ndarray, fs: float, *, skip_s: float = 0.05) -> Level:
+    """:func:`level` from the A-weighted power ``p_A²`` [Pa²] itself: the sum of incoherent
+    sources' powers gives their levels together (energy for ``L_Aeq``, and the fast average of
+    the summed power for ``L_AFmax``)."""
     alpha = -math.expm1(-1.0 / (fs * TAU_FAST))
-    skip = min(int(round(skip_s * fs)), p.size - 1)
-    return Level(_db(float(np.mean(p2))), _db(_fast_max(p2, alpha, skip)))
+    skip = min(int(round(skip_s * fs)), pa2.size - 1)
+    return Level(_db(float(np.mean(pa2))), _db(_fast_max(pa2, alpha, skip)))
 
 
 def fast_level_series(pressure_pa: np.ndarray, fs: float, *, step_s: float = 0.002
@@ -174,4 +180,4 @@ def energy_sum_db(levels_db) -> float:
     return 10.0 * math.log10(float(np.sum(10.0 ** (levels / 10.0)))) if levels.size else -math.inf
 
 
-__all__ = ["Level", "level", "a_weighting_db", "a_weighted", "energy_sum_db", "fast_level_series", "P_REF", "TAU_FAST"]
+__all__ = ["Level", "level", "level_of_power", "a_weighting_db", "a_weighted", "energy_sum_db", "fast_level_series", "P_REF", "TAU_FAST"]

@@ -73,7 +73,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..analysis.levels import TAU_FAST, a_weighted, energy_sum_db, level, P_REF
+from ..analysis.levels import a_weighted, level_of_power
 from ..analysis.loudness import (SAMPLE_RATE, SKIP_S, band_levels, loudness_of_levels,
                                  sum_levels)
 from ..analysis.sound import render
@@ -224,16 +224,10 @@ def _blocks(t: np.ndarray, values: np.ndarray, transient: int, record: int) -> n
 _HEARD = ("loudness_sone", "sharpness_acum", "spl_dba", "spl_dba_max")
 
 
-def _fast_max_db(p2: np.ndarray) -> float:
-    """``L_AFmax`` [dB] of a summed A-weighted power ``p_A²`` [Pa²] (as
-    :func:`~rattle_core.analysis.levels.level`: fast exponential average, the first
-    ``SKIP_S`` seconds left out)."""
-    from scipy.signal import lfilter
-    alpha = -math.expm1(-1.0 / (SAMPLE_RATE * TAU_FAST))
-    avg = lfilter([alpha], [1.0, alpha - 1.0], p2)
-    skip = min(int(round(SKIP_S * SAMPLE_RATE)), p2.size - 1)
-    peak = float(np.max(avg[skip:]))
-    return 10.0 * math.log10(peak / P_REF ** 2) if peak > 0 else math.nan
+def _spl(pa2: np.ndarray) -> Any:
+    """``L_Aeq`` and ``L_AFmax`` of an A-weighted power, silence as NaN (a table's empty cell)."""
+    spl = level_of_power(pa2, SAMPLE_RATE, skip_s=SKIP_S)
+    return type(spl)(*(v if math.isfinite(v) else math.nan for v in (spl.spl_dba, spl.spl_dba_max)))
 
 
 def own_attractor(attractors, letter: str):
@@ -292,15 +286,16 @@ def _verdict_chunk(gearbox: Gearbox, rpm: np.ndarray, transient: int, record: in
                 continue
             lv = band_levels(p)
             h = loudness_of_levels(lv, p.size)
-            spl = level(p, SAMPLE_RATE, skip_s=SKIP_S)
+            pa2 = a_weighted(p, SAMPLE_RATE) ** 2
+            spl = _spl(pa2)
             heard.append((h.loudness_sone, h.sharpness_acum, spl.spl_dba, spl.spl_dba_max))
             levels.append(lv)
-            weighted.append(a_weighted(p, SAMPLE_RATE) ** 2)
+            weighted.append(pa2)
         loud = [row for row in heard if not math.isnan(row[2])]
         if len(loud) > 1:
             h = loudness_of_levels(sum_levels(levels), weighted[0].size)
-            loud = [(h.loudness_sone, h.sharpness_acum, energy_sum_db([r[2] for r in loud]),
-                     _fast_max_db(sum(weighted)))]
+            spl = _spl(sum(weighted))  # incoherent gears: their A-weighted powers add
+            loud = [(h.loudness_sone, h.sharpness_acum, spl.spl_dba, spl.spl_dba_max)]
         heard.append(loud[0] if loud else silent)
         return heard
 
