@@ -26,7 +26,6 @@ import argparse  # noqa: E402
 import math  # noqa: E402
 import time  # noqa: E402
 
-import numpy as np  # noqa: E402
 
 from rattle_core.batch.runup import gearbox_runup  # noqa: E402
 

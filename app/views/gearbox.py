@@ -17,7 +17,6 @@ Uploads are parsed in the job pool's workers under the job limits (:mod:`app.wor
 from __future__ import annotations
 
 import io
-import math
 from typing import Any
 
 import holoviews as hv

@@ -49,7 +49,8 @@ from ..analysis.loudness import (SAMPLE_RATE, SKIP_S, band_levels, loudness_of_l
                                  sum_levels)
 from ..analysis.sound import render
 from ..model.gearbox import Gearbox
-from ..solver.runup import RunupReplay, check_run, replay
+from ..model.target import fail_ranges
+from ..solver.runup import check_run, replay
 from .executor import default_threads
 from .gearbox import GEARBOX, Verdict
 
@@ -268,20 +269,6 @@ def _window_n5(run: GearboxRunup, n_t: np.ndarray, grid: np.ndarray, step: float
     return out
 
 
-def _spans(grid: np.ndarray, bad: np.ndarray) -> list[tuple[float, float]]:
-    spans, start = [], None
-    for v, b in zip(grid, bad):
-        if b and start is None:
-            start = v
-        if not b and start is not None:
-            spans.append((start, prev))
-            start = None
-        prev = v
-    if start is not None:
-        spans.append((start, grid[-1]))
-    return spans
-
-
 @dataclasses.dataclass(frozen=True, eq=False)
 class Comparison:
     """A run against the quasi-steady verdict (module docstring: the rules).
@@ -334,7 +321,7 @@ def compare(run: GearboxRunup, verdict: Verdict, rundown: GearboxRunup | None = 
         holds = ~(np.abs(r_n - v_n) > tol)
         lrows.append(pd.DataFrame({"gear": name, "rpm": grid, "run_sone": r_n,
                                    "verdict_sone": v_n, "holds": holds}))
-        bad = _spans(grid, ~holds)
+        bad = fail_ranges(grid, holds)
         loud = ("loudness within tolerance at every grid speed" if not bad else
                 "loudness differs beyond tolerance at " +
                 ", ".join(f"{a:g}–{b:g} rpm" if b > a else f"{a:g} rpm" for a, b in bad))

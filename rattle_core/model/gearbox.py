@@ -76,7 +76,7 @@ from ..measure.measurement import OPTIONS as MEASUREMENT_OPTIONS, measurement_op
 from ..measure.orders import MAX_ORDERS, ORDER_RANGE, SAMPLE_RUNUP, OrderMap
 from .params import R_RANGE, check_range
 from .target import Target
-from .toml_checks import (BIDI_CHARACTERS, MAX_TOML_ARRAY, MAX_TOML_DEPTH, MAX_TOML_STRING,
+from .toml_checks import (MAX_TOML_ARRAY, MAX_TOML_DEPTH, MAX_TOML_STRING,
                           _at, _check_keys, _FileError, _one_line, _subtable, _table,
                           check_name, check_nesting, check_sizes)
 from .units import (ALPHA_RANGE, DRAG_TORQUE_RANGE, INERTIA_RANGE, RADIUS_RANGE, THETA_RANGE,
