@@ -13,7 +13,9 @@ its layout within a second, and a client that has gone costs no build.
 Presentation mode (``state.present``) keeps every view and model: the header's button marks
 the page (the template's stylesheet hides the sidebar), the Explorer's stylesheet lays the time
 history and the section side by side in the height the window leaves below the header, what
-holds them stretches, and the parts a lecture does not need are hidden.
+holds them stretches, and the parts a lecture does not need are hidden. ``state.stage`` picks
+another view to present instead (:data:`app.ui.present.STAGES`): the diagram, the gear in motion,
+the pin, or the Maps tab's map, each shown alone in the same way.
 """
 from __future__ import annotations
 
@@ -43,7 +45,7 @@ from .views.sensitivity import SensitivityView
 from .views.sound import SoundView
 from .views.time_history import TimeHistoryView
 from .views.units import UnitsView
-from .ui.present import PAGE_CSS, PANE_CSS, PRESENTING, mark
+from .ui.present import PAGE_CSS, PANE_CSS, PRESENTING, STAGES, mark
 from .ui.widgets import message
 
 SIDEBAR_WIDTH = 380
@@ -51,14 +53,38 @@ SIDEBAR_WIDTH = 380
 TABS = ("explorer", "maps", "gearbox")
 #: While presenting, the Explorer tab is a grid as high as the main area: the regime's row on
 #: top, and below it the time history and the section side by side, sharing what is left.
+#: Presenting the gear in motion, the drawing takes the section's place beside the time
+#: history; presenting the pin, its caption is a row above the two plots; presenting the
+#: diagram, it takes the whole last row.
 EXPLORER_CSS = f"""
 :host(.{PRESENTING}) {{ display: grid !important; height: 100% !important; column-gap: 10px;
                         grid-template-columns: minmax(0, 1fr) minmax(0, 1fr);
                         grid-template-rows: auto minmax(0, 1fr); }}
+:host(.{PRESENTING}.stage-pin) {{ grid-template-rows: auto auto minmax(0, 1fr); }}
 :host(.{PRESENTING}) > * {{ grid-column: 1 / -1; }}
-:host(.{PRESENTING}) > .th-cell, :host(.{PRESENTING}) > .section-row {{
+:host(.{PRESENTING}) > .th-cell, :host(.{PRESENTING}) > .section-row,
+:host(.{PRESENTING}) > .motion-cell {{
     grid-column: auto; width: auto !important; height: auto !important; align-self: stretch !important;
     min-width: 0 !important; min-height: 0 !important; }}
+:host(.{PRESENTING}.stage-diagram) > .section-row {{ grid-column: 1 / -1; }}
+"""
+#: Presenting the diagram, the continuation's controls and multipliers stand in a column at
+#: its right, so that the diagram keeps the window's height.
+DIAGRAMS_CSS = f"""
+:host(.{PRESENTING}) {{ display: grid !important; column-gap: 10px;
+                        grid-template-columns: minmax(0, 1fr) 400px;
+                        grid-template-rows: minmax(0, 1fr); }}
+:host(.{PRESENTING}) > * {{ min-width: 0 !important; min-height: 0 !important;
+                            width: auto !important; }}
+:host(.{PRESENTING}) > .diagram-cell {{ height: auto !important; align-self: stretch !important; }}
+"""
+#: Presenting the maps, the map takes the Maps tab's height less what the atlas's card needs.
+MAPS_CSS = f"""
+:host(.{PRESENTING}) {{ display: grid !important; height: 100% !important;
+                        grid-template-columns: minmax(0, 1fr);
+                        grid-template-rows: minmax(0, 1fr) auto; }}
+:host(.{PRESENTING}) > * {{ min-width: 0 !important; min-height: 0 !important; width: auto !important; }}
+:host(.{PRESENTING}) > :first-child {{ height: auto !important; align-self: stretch !important; }}
 """
 #: Every live dashboard (weakly held): a closed session's must disappear from here.
 LIVE: "weakref.WeakSet[Dashboard]" = weakref.WeakSet()
@@ -162,25 +188,36 @@ class Dashboard:
                       self.time_history, self.section, self.motion,
                       self.diagram, self.continuation, self.curve, self.sound, self.maps,
                       self.atlas, self.gearbox, self.runup, self.sensitivity, self.present]
-        self.diagrams = pn.Column(self.diagram, self.continuation, self.curve,
-                                  sizing_mode="stretch_width")
+        cell = lambda v, css="": pn.Column(v, sizing_mode="stretch_width", margin=0,  # noqa: E731
+                                           css_classes=[css] if css else [])
+        diagram_cell = cell(self.diagram, "diagram-cell")
+        self.diagrams = pn.Column(diagram_cell, pn.Column(self.continuation, self.curve, margin=0,
+                                                          sizing_mode="stretch_width"),
+                                  sizing_mode="stretch_width", stylesheets=[DIAGRAMS_CSS])
         # while presenting, the explorer's stylesheet lays these two cells side by side
-        th_cell = pn.Column(self.time_history, css_classes=["th-cell"],
-                            sizing_mode="stretch_width", margin=0)
-        section_row = pn.Row(self.section, self.diagrams, css_classes=["section-row"],
-                             sizing_mode="stretch_width")
-        #: What holds the plots: as high as the window while presenting (:meth:`_present`).
-        self.holders = [th_cell, section_row]
-        pin, noise, table, motion, sensitivity, sound = (
-            pn.Column(v, sizing_mode="stretch_width", margin=0)
-            for v in (self.pin, self.noise, self.units.table, self.motion, self.sensitivity,
-                      self.sound))
-        #: What a lecture does not need: hidden while presenting (a pinned run stays drawn).
-        self.normal_only = [pin, noise, table, motion, sensitivity, sound, self.diagrams]
+        th_cell = cell(self.time_history, "th-cell")
+        section_cell = cell(self.section)
+        self.section_row = pn.Row(section_cell, self.diagrams, css_classes=["section-row"],
+                                  sizing_mode="stretch_width")
+        #: The Explorer's parts by the names of :data:`app.ui.present.STAGES` (and the others):
+        #: presenting, only those of the stage are shown, and those holding plots stretch.
+        self.cells = {"pin": cell(self.pin, "pin-cell"), "noise": cell(self.noise),
+                      "table": cell(self.units.table), "time_history": th_cell,
+                      "motion": cell(self.motion, "motion-cell"), "section": section_cell,
+                      "diagram": self.diagrams, "sensitivity": cell(self.sensitivity),
+                      "sound": cell(self.sound)}
+        #: What stretches to the window's height while presenting, when shown.
+        self.holders = {"time_history": [th_cell], "motion": [self.cells["motion"]],
+                        "section": [self.section_row, section_cell],
+                        "diagram": [self.section_row, self.diagrams, diagram_cell]}
+        c = self.cells
         self.explorer = pn.Column(
-            self.regime, pin, noise, th_cell, table, motion, section_row, sensitivity, sound,
+            self.regime, c["pin"], c["noise"], th_cell, c["table"], c["motion"], self.section_row,
+            c["sensitivity"], c["sound"],
             sizing_mode="stretch_width", css_classes=["explorer"], stylesheets=[EXPLORER_CSS])
-        return pn.Column(self.maps, self.atlas, sizing_mode="stretch_width")
+        self.maps_tab = pn.Column(self.maps, self.atlas, sizing_mode="stretch_width",
+                                  stylesheets=[MAPS_CSS])
+        return self.maps_tab
 
     def _lay_out(self, maps_tab: Any) -> None:
         """The arranged views put in the page already sent (every view's models are built)."""
@@ -201,21 +238,37 @@ class Dashboard:
         self.layout = shell.layout
         shell.sidebar[:] = [self.controls, self.units]
         shell.notes[:] = [message(s, "url"), message(s, "tab"), message(s, "global")]
-        s.param.watch(self._present, "present")
+        s.param.watch(self._present, ["present", "stage"])
         self._present()
 
     def _present(self, *_: Any) -> None:
-        """Presentation mode on or off: the same views, another look (:mod:`app.ui.present`)."""
-        on = self.state.present
-        if on and self.tabs.active != 0:
-            self.tabs.active = 0  # the lecture's plots are on the Explorer tab
+        """Presentation mode on or off, and what it shows (``state.stage``): the same views,
+        another look (:mod:`app.ui.present`)."""
+        s = self.state
+        on = s.present
+        stage = s.stage if on else None
+        shown = set(STAGES[stage]) if on else set(self.cells)
+        if on:  # the presented view's tab, whatever tab was open
+            tab = TABS.index("maps" if stage == "maps" else "explorer")
+            if self.tabs.active != tab:
+                self.tabs.active = tab
         mark([self.explorer, self.tabs], on)
+        # the diagrams' grid only while they are presented: its display would show them hidden
+        mark([self.diagrams], stage == "diagram")
+        mark([self.maps_tab], stage == "maps")
+        for name in STAGES:
+            mark([self.explorer], stage == name, f"stage-{name}")
         # said here, not left to Panel, which would infer it from the stretching plots when
         # the page is built while presenting, and keep it after
-        for part in (self.tabs, self.explorer, *self.holders):
-            part.sizing_mode = "stretch_both" if on else "stretch_width"
-        for part in self.normal_only:
-            part.visible = not on
+        stretched = {id(p) for name in shown if on for p in self.holders.get(name, ())}
+        self.tabs.sizing_mode = "stretch_both" if on else "stretch_width"
+        self.explorer.sizing_mode = "stretch_both" if on and stage != "maps" else "stretch_width"
+        self.maps_tab.sizing_mode = "stretch_both" if stage == "maps" else "stretch_width"
+        for part in {id(p): p for ps in self.holders.values() for p in ps}.values():
+            part.sizing_mode = "stretch_both" if id(part) in stretched else "stretch_width"
+        for name, part in self.cells.items():
+            part.visible = not on or name in shown
+        self.section_row.visible = not on or bool(shown & {"section", "diagram"})
 
     def _on_tab(self, event) -> None:
         if 0 <= event.new < len(TABS):

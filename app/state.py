@@ -186,6 +186,11 @@ class ExplorerState(Said):
                          doc="the page's main tab, so that a shared link opens on it")
     present = Flag(False, label="presentation mode",
                    doc="large fonts, the time history and the section side by side, no sidebar")
+    stage = param.Selector(default="plots", objects=["plots", "diagram", "motion", "pin", "maps"],
+                           label="presented view",
+                           doc="what presentation mode shows: the time history and the section "
+                               "(plots), the bifurcation diagram, the gear in motion, the pinned "
+                               "comparison or the maps")
     # ----- physical units --------------------------------------------------------------------
     units = Flag(False, label="physical units")
     inertia = param.Number(_EX.inertia, bounds=U.INERTIA_RANGE, inclusive_bounds=OPEN,

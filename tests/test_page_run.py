@@ -108,7 +108,8 @@ def test_a_heavy_run_over_its_time_limit_is_stopped(job_pool, monkeypatch):
     s = Session(pool=job_pool)
     good = s.state.periods
     s.state.param.update(**HEAVY)
-    wait_for(lambda: "time limit" in s.state.messages.get("global", ""), 60, "the time limit")
+    # a worker killed by the test before is replaced, and warms up first: minutes when loaded
+    wait_for(lambda: "time limit" in s.state.messages.get("global", ""), 300, "the time limit")
     assert s.state.periods == good
     assert s.state.result.tr.settings["periods"] == good
     s.destroy()

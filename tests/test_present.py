@@ -89,7 +89,8 @@ def test_presentation_mode_enlarges_the_plots_and_hides_the_rest_and_exit_restor
     before = (th.height, th.sizing_mode, th.xaxis[0].major_label_text_font_size,
               th.xaxis[0].axis_label_text_font_size)
     section = (dash.section.pane.sizing_mode, dash.section.pane.min_height)
-    assert all(part.visible for part in dash.normal_only)
+    others = [part for name, part in dash.cells.items() if name not in ("time_history", "section")]
+    assert all(part.visible for part in dash.cells.values())
     assert dash.present.button.label == "Present"
 
     dash.present.button.clicks += 1
@@ -97,7 +98,8 @@ def test_presentation_mode_enlarges_the_plots_and_hides_the_rest_and_exit_restor
     assert th.sizing_mode == dash.section.pane.sizing_mode == "stretch_both"
     assert px(th.xaxis[0].major_label_text_font_size) >= 1.4 * px(before[2])
     assert px(th.xaxis[0].axis_label_text_font_size) >= 1.4 * px(before[3])
-    assert not any(part.visible for part in dash.normal_only)
+    assert not any(part.visible for part in others)
+    assert dash.cells["time_history"].visible and dash.cells["section"].visible
     assert "presenting" in dash.explorer.css_classes and "presenting" in dash.regime.badge.css_classes
     assert "rattle-presenting" in dash.present.header.css_classes
     assert dash.present.sliders.visible and dash.present.button.label == "Exit presentation"
@@ -107,10 +109,57 @@ def test_presentation_mode_enlarges_the_plots_and_hides_the_rest_and_exit_restor
     assert (th.height, th.sizing_mode, th.xaxis[0].major_label_text_font_size,
             th.xaxis[0].axis_label_text_font_size) == before
     assert (dash.section.pane.sizing_mode, dash.section.pane.min_height) == section
-    assert all(part.visible for part in dash.normal_only)
+    assert all(part.visible for part in dash.cells.values())
     assert "presenting" not in dash.explorer.css_classes
     assert "rattle-presenting" not in dash.present.header.css_classes
     assert not dash.present.sliders.visible and dash.present.button.label == "Present"
+
+
+@pytest.mark.parametrize("stage, view, figure", [
+    ("diagram", "diagram", lambda d: d.diagram.pane.get_root().select_one({"name": "bifurcation"})),
+    ("motion", "motion", lambda d: d.motion.parts["figure"]),
+    ("pin", "section", lambda d: d.section.pane.get_root().select_one({"name": "section"})),
+    ("maps", "maps", lambda d: d.maps.pane.get_root().select_one({"name": "map_figure"})),
+])
+def test_present_this_shows_that_view_alone_and_large_and_exit_restores(dash, stage, view, figure):
+    """A view's "Present this" button presents it (``present`` and ``stage``, URL keys): the other parts of the Explorer hidden, its figure stretching with fonts ≥ 1.4 × the normal
+    ones, the buttons hidden; "Exit presentation" restores the page and the stage."""
+    from app.ui.present import STAGES
+    s = dash.state
+    fig = figure(dash)
+    normal = px(fig.xaxis[0].major_label_text_font_size)
+    button = {"diagram": dash.diagram, "motion": dash.motion, "pin": dash.pin,
+              "maps": dash.maps}[stage].present_button
+    assert button.visible and button.label == "Present this"
+    button.clicks += 1
+    assert (s.present, s.stage) == (True, stage)
+    assert URL_KEYS["stage"] == "stage"
+    shown = set(STAGES[stage])
+    for name, part in dash.cells.items():
+        assert part.visible == (name in shown), name
+    assert f"stage-{stage}" in dash.explorer.css_classes
+    assert dash.tabs.active == (1 if stage == "maps" else 0)
+    if stage == "maps":  # the map alone: its controls are hidden
+        assert not dash.maps.controls.visible and "presenting" in dash.maps_tab.css_classes
+    fig = figure(dash)  # a HoloViews figure is the same model, its fonts set by its hook
+    assert fig.sizing_mode == "stretch_both"
+    assert px(fig.xaxis[0].major_label_text_font_size) >= 1.4 * normal
+    assert not button.visible
+    dash.present.button.clicks += 1
+    assert (s.present, s.stage) == (False, "plots")
+    assert all(part.visible for part in dash.cells.values())
+    assert f"stage-{stage}" not in dash.explorer.css_classes and button.visible
+    assert figure(dash).sizing_mode == "stretch_width"
+    assert px(figure(dash).xaxis[0].major_label_text_font_size) == normal
+
+
+def test_a_stage_that_is_no_view_is_refused_with_a_message():
+    """``?present=true&stage=banana`` presents the plots and names the allowed views."""
+    session = Session(location=Location(search="?present=true&stage=banana"))
+    s = session.state
+    assert s.present is True and s.stage == "plots"
+    assert "presented view" in s.messages["stage"] and "diagram" in s.messages["stage"]
+    session.destroy()
 
 
 def test_every_presenting_font_is_at_least_1_4_times_the_normal_one():

@@ -12,6 +12,8 @@ views and their Bokeh models, and only their look changes. Everything that diffe
   while the pane carries the ``presenting`` class (:func:`mark`): the badge, the metrics and
   the legend at least 1.4 times their normal fonts (the sentence under the badge 1.3 times,
   so that it keeps to one line on a 1280-pixel projector), the tabs' header hidden.
+* :data:`STAGES` names what presentation mode shows, and :func:`presents` tells a view
+  whether it is one of them (the others keep their normal look, hidden or on another tab).
 * :func:`figure_fonts` sets a Bokeh figure's title, axis, tick and legend fonts, normal or
   large; the views call it on their figures (the section's from its HoloViews hook, so a
   redraw keeps it).
@@ -19,6 +21,17 @@ views and their Bokeh models, and only their look changes. Everything that diffe
 from __future__ import annotations
 
 from typing import Any, Iterable
+
+#: What presentation mode can show (``state.stage``, the URL key ``stage``), and the views each
+#: puts on the screen: the time history and the section (the header's "Present"), the
+#: bifurcation diagram with continuation, the gear in motion above the time history, the
+#: pinned comparison, and the Maps tab's map with its atlas. Each of the four others has its
+#: own "Present this" button (:func:`app.views.present.present_button`).
+STAGES = {"plots": ("time_history", "section"),
+          "diagram": ("diagram",),
+          "motion": ("motion", "time_history"),
+          "pin": ("pin", "time_history", "section"),
+          "maps": ("maps",)}
 
 #: The class the page's stylesheets key on while presenting.
 PRESENTING = "presenting"
@@ -40,6 +53,7 @@ PANE_CSS = f"""
 :host(.{PRESENTING}) .rattle-badge .badge-detail {{ display: none; }}
 :host(.{PRESENTING}) .regime-legend {{ font-size: 17px !important; line-height: 1.5 !important; }}
 :host(.{PRESENTING}) .regime-seen {{ font-size: 17px !important; }}
+:host(.{PRESENTING}) .pin-line {{ font-size: 18px !important; }}
 :host(.{PRESENTING}) table {{ font-size: 19px !important; }}
 :host(.{PRESENTING}) .bk-header {{ display: none !important; }}
 """
@@ -63,6 +77,11 @@ def figure_fonts(fig: Any, present: bool, title: str = "10pt") -> None:
     for legend in fig.legend:
         if legend.label_text_font_size != f["legend"]:
             legend.label_text_font_size = f["legend"]
+
+
+def presents(state: Any, view: str) -> bool:
+    """Whether ``view`` (a name in :data:`STAGES`) is on the screen in presentation mode."""
+    return bool(state.present) and view in STAGES.get(state.stage, ())
 
 
 def mark(objects: Iterable[Any], present: bool, cls: str = PRESENTING) -> None:

@@ -127,13 +127,15 @@ def joined(segments: list[np.ndarray]) -> np.ndarray:
 
 
 def branch_overlay(branch: Branch | None, name: str,
-                   limits: tuple[tuple[float, float], tuple[float, float]] | None = None) -> hv.Overlay:
+                   limits: tuple[tuple[float, float], tuple[float, float]] | None = None,
+                   large: bool = False) -> hv.Overlay:
     """The branches on the diagram: stable solid, unstable dashed, one colour and one legend
     entry per branch, bifurcations marked and labelled (empty, unlabelled elements where there
     is no branch for diagram ``name``).
 
     Each bifurcation is labelled once, inside ``limits`` (the view's ranges): near the right
     edge to its left, and close neighbours a row apart, so labels neither clip nor overlap.
+    ``large`` labels are for a presented diagram, whose figure is larger in proportion.
     """
     kdims = [hv.Dimension("x"), hv.Dimension("y")]
     ok = branch is not None and branch.name == name
@@ -157,7 +159,7 @@ def branch_overlay(branch: Branch | None, name: str,
     if marks is None or not len(marks):  # one blank row: Bokeh cannot draw empty text columns
         marks = pd.DataFrame({"x": [np.nan], "y": [np.nan], "label": [""], "message": [""]})
     left, right = mark_labels(branch.marks if ok else None, limits)
-    text = {"text_font_size": "9pt", "text_color": "black", "text_baseline": "bottom"}
+    text = {"text_font_size": "13pt" if large else "9pt", "text_color": "black", "text_baseline": "bottom"}
     return hv.Overlay([
         *lines,
         hv.Points(marks, kdims, ["label", "message"]).opts(

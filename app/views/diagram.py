@@ -40,7 +40,9 @@ from ..ui.plots import (TOOLS, HoloViewsPane, PinMarkers, Zoom, caption, file_st
                         save_as, weak_hook)
 from ..state import ExplorerState
 from ..work.threads import later
+from ..ui.present import figure_fonts, presents
 from ..ui.widgets import Choice, deferred, message, set_value
+from .present import present_button
 
 OPTIONS = {"Ĩ vs Λ": "lam", "Ĩ vs φ₂": "phi2"}
 UNITS_OPTIONS = {"I vs engine speed": "rpm", "Ĩ vs φ₂": "phi2"}
@@ -96,17 +98,30 @@ class DiagramView(pn.viewable.Viewer):
             hv.opts.RGB(tools=[*TOOLS, "tap"], active_tools=["wheel_zoom"]))
         self.pane = HoloViewsPane(plot, sizing_mode="stretch_width", min_height=380,
                                       css_classes=["diagram"])
+        self.present_button = present_button(s, "diagram")
+        self.layout = pn.Column(
+            pn.Row(self.choice, self.overlays, self.present_button, sizing_mode="stretch_width"),
+            message(self.state, "bif"), self.progress, self.status, deferred(self.pane),
+            sizing_mode="stretch_width")
+        s.param.watch(self._present, ["present", "stage"])
         s.param.watch(self._update, ["result", "bif", "phases"])
         s.param.watch(self._move_marker, ["result", "pinned_result"])
         s.param.watch(self._on_units, "units")
         if s.units and s.bif == "lam":  # in physical units Λ runs as engine speed
             s.bif = "rpm"
         self._update()
+        self._present()
 
     def __panel__(self):
-        return pn.Column(pn.Row(self.choice, self.overlays, sizing_mode="stretch_width"),
-                         message(self.state, "bif"), self.progress, self.status, deferred(self.pane),
-                         sizing_mode="stretch_width")
+        return self.layout
+
+    def _present(self, *_: Any) -> None:
+        """Presented, the diagram is as high as its cell (the window's height below the badge);
+        the figure's fonts and sizing follow in the hook (:meth:`_name_plot`)."""
+        mode = "stretch_both" if presents(self.state, "diagram") else "stretch_width"
+        for part in (self.layout, self.layout[-1], self.pane):
+            part.sizing_mode = mode
+        self.marks_revision += 1
 
     # ----- what to show -------------------------------------------------------------------------
 
@@ -266,7 +281,8 @@ class DiagramView(pn.viewable.Viewer):
             # its structure, and no colour column is looked for in an empty label set
             align = shown[0][3] if shown else "left"
             labels.append(hv.Labels([r[:3] for r in shown], kdims, ["text"]).opts(
-                text_color=color, text_align=align, text_font_size="9pt", text_baseline="middle"))
+                text_color=color, text_align=align, text_baseline="middle",
+                text_font_size="13pt" if presents(self.state, "diagram") else "9pt"))
         segs = hv.Segments(lines, kdims + ["x1", "y1"], ["color"]).opts(
             color="color", line_width=2, line_dash="dashed")
         text = labels[0] * labels[1]
@@ -277,7 +293,8 @@ class DiagramView(pn.viewable.Viewer):
 
     def _branch(self, branch: Any = None, marks_revision: int = 0) -> hv.Overlay:
         """The continued branch (``state.branch``), drawn by :mod:`app.views.continuation`."""
-        return self.zoom.apply(branch_overlay(branch, self._name, self._limits()), *self._limits())
+        return self.zoom.apply(branch_overlay(branch, self._name, self._limits(),
+                                              large=presents(self.state, "diagram")), *self._limits())
 
     def _name_plot(self, plot: Any, element: Any) -> None:
         """Title (the parameters, so a saved PNG carries them) and the save tool's file name."""
@@ -290,7 +307,11 @@ class DiagramView(pn.viewable.Viewer):
         self.pins.attach(plot.state, self._pinned_at(), self._marker_at())
         if plot.state.title.text != self._title:
             plot.state.title.text = self._title
-            plot.state.title.text_font_size = "9pt"
+        present = presents(self.state, "diagram")
+        figure_fonts(plot.state, present, title="9pt")
+        mode = "stretch_both" if present else "stretch_width"
+        if plot.state.sizing_mode != mode:
+            plot.state.sizing_mode = mode
         for tool in plot.state.toolbar.tools:
             if isinstance(tool, WheelZoomTool) and tool.dimensions != "width":
                 tool.dimensions = "width"  # the swept axis only: a zoom in impulse soon shows nothing

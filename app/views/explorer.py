@@ -26,7 +26,7 @@ from ..core import batch_means, excitation
 from ..ui.help import HELP, tooltip
 from ..ui.labels import (MARK_COLOR, PIN_COLOR, badge_html, metrics_rows, regime_legend_html, table_html,
                          what_you_see)
-from ..ui.present import PANE_CSS, figure_fonts, mark
+from ..ui.present import PANE_CSS, figure_fonts, mark, presents
 from ..ui.plots import (TOOLS, HoloViewsPane, Zoom, caption, file_stem, padded, save_as,
                     section_points, weak_hook)
 from ..state import ExplorerState
@@ -88,7 +88,7 @@ class SectionView(pn.viewable.Viewer):
         self.state.param.watch(self._update, ["result", "section", "pinned_result"])
         # drawn once the page has loaded, so the first plot (the time history) comes sooner
         self.layout = pn.Column(self.mode, self.msg, deferred(self.pane), sizing_mode="stretch_width")
-        self.state.param.watch(self._present, "present")
+        self.state.param.watch(self._present, ["present", "stage"])
         self._update()
         self._present()
 
@@ -98,7 +98,7 @@ class SectionView(pn.viewable.Viewer):
     def _present(self, *_: Any) -> None:
         """While presenting, the section and what holds it are as high as their cell in the
         Explorer's grid; the figure follows from the hook (:meth:`_name_plot`)."""
-        mode = "stretch_both" if self.state.present else "stretch_width"
+        mode = "stretch_both" if presents(self.state, "section") else "stretch_width"
         for part in (self.layout, self.layout[2], self.pane):
             part.sizing_mode = mode
         self._redraw()
@@ -152,9 +152,9 @@ class SectionView(pn.viewable.Viewer):
         marker = hv.Points([point] if point else [], self._kdims).opts(
             marker="x", size=14, line_width=3, color=MARK_COLOR)
         cloud = hv.Points(self._xy, self._kdims, label=LIVE_LABEL).opts(
-            size=7 if s.present else 4, color="#1f5fa8", alpha=0.8)
+            size=7 if presents(s, "section") else 4, color="#1f5fa8", alpha=0.8)
         pinned = hv.Points(self._pinned_xy, self._kdims, label=PINNED_LABEL).opts(
-            marker="triangle", size=9 if s.present else 6, color=PIN_COLOR, alpha=0.75)
+            marker="triangle", size=9 if presents(s, "section") else 6, color=PIN_COLOR, alpha=0.75)
         return self.zoom.apply(pinned * cloud * marker, *self._lims)
 
     def _raster(self, dense_revision: int = 0, x_range: Any = None, y_range: Any = None) -> hv.RGB:
@@ -189,7 +189,7 @@ class SectionView(pn.viewable.Viewer):
                 fig.y_range.update(start=y0, end=y1, reset_start=y0, reset_end=y1)
         if plot.state.title.text != self._title:
             plot.state.title.text = self._title
-        present = self.state.present
+        present = presents(self.state, "section")
         figure_fonts(plot.state, present, title="9pt")
         mode = "stretch_both" if present else "stretch_width"
         if plot.state.sizing_mode != mode:

@@ -38,7 +38,9 @@ from ..work.threads import HV_LOCK, later
 from ..ui.job_panel import JobPanel
 from ..ui.labels import REGIME_COLOR, map_key, map_legend, text_html
 from ..ui.plots import TOOLS, HoloViewsPane, caption, file_stem, key_legend, save_as
+from ..ui.present import figure_fonts, presents
 from ..ui.widgets import Choice, Field, message
+from .present import present_button
 
 MAP_HEIGHT, MAP_MIN_WIDTH = 520, 420  # its width: what the controls leave, or below them
 
@@ -84,6 +86,9 @@ class MapsView(pn.viewable.Viewer):
         self._choices = {n: Choice(m, n, {axis_label(a): a for a in self._axes()}, select=True,
                                    sizing_mode="stretch_width") for n in ("x_axis", "y_axis")}
         self._field = Choice(m, "field", self._fields(), select=True, width=300)
+        self.layout = None
+        self.present_button = present_button(self.state, "maps")
+        self.state.param.watch(self._present, ["present", "stage"])
         default = (m.param.x_axis.default, m.param.y_axis.default)
         if self.state.units and m.kind == "regime" and (m.x_axis, m.y_axis) == default:
             # in physical units: engine speed and drag torque (unless the link chose other axes)
@@ -118,8 +123,25 @@ class MapsView(pn.viewable.Viewer):
             message(self.state, "map-run"), self.progress, self.status,
             pn.pane.HTML(text_html(where, "font-size:12px;color:#555"), css_classes=["map-where"]),
             self.download, self.legend, width=440, margin=(0, 10))
-        return pn.FlexBox(controls, pn.Column(self._field, self.pane, sizing_mode="stretch_width",
-                          min_width=MAP_MIN_WIDTH), flex_wrap="wrap", sizing_mode="stretch_width")
+        self.controls = controls
+        self.map_column = pn.Column(pn.Row(self._field, self.present_button), self.pane,
+                                    sizing_mode="stretch_width", min_width=MAP_MIN_WIDTH)
+        self.layout = pn.FlexBox(controls, self.map_column, flex_wrap="wrap",
+                                 sizing_mode="stretch_width")
+        self._present()
+        return self.layout
+
+    def _present(self, *_: Any) -> None:
+        """Presented, the map takes the whole window below the header (its controls are
+        hidden: the lecture shows a map computed before), with larger fonts."""
+        if getattr(self, "layout", None) is None:
+            return
+        on = presents(self.state, "maps")
+        self.controls.visible = not on
+        mode = "stretch_both" if on else "stretch_width"
+        for part in (self.layout, self.map_column, self.pane):
+            part.sizing_mode = mode
+        self.revision += 1  # the hook sets the figure's fonts and sizing
 
     # ----- axes -------------------------------------------------------------------------------
 
@@ -296,7 +318,11 @@ class MapsView(pn.viewable.Viewer):
             me = ref()
             if me is not None and me._generation == generation:
                 plot.state.name = "map_figure"
-                plot.state.title.text_font_size = "9pt"
+                present = presents(me.state, "maps")
+                figure_fonts(plot.state, present, title="9pt")
+                mode = "stretch_both" if present else "stretch_width"
+                if plot.state.sizing_mode != mode:
+                    plot.state.sizing_mode = mode
                 me._figure = weakref.ref(plot.state)
                 save_as(lambda: me._stem)(plot, element)
                 key_legend(plot.state, map_key(me.result, me.settings.field))

@@ -35,6 +35,8 @@ from bokeh.plotting import figure
 from ..state import ExplorerState
 from ..ui.labels import ACTIVE_COLOR, GEAR_COLOR, REVERSE_COLOR, TOOTH_COLOR
 from ..ui.motion_js import MOTION_JS
+from ..ui.present import figure_fonts, presents
+from .present import present_button
 from ..ui.plots import time_history_data
 
 #: Frames per forcing period, and most frames per run (more periods shown: fewer per period).
@@ -172,12 +174,32 @@ class MotionView(pn.viewable.Viewer):
         self.layout, self.parts = motion_figure()
         self.pane = pn.pane.Bokeh(self.layout, sizing_mode="stretch_width",
                                   css_classes=["motion"])
+        self.present_button = present_button(self.state, "motion")
+        self.view = pn.Column(self.present_button, self.pane, sizing_mode="stretch_width",
+                              margin=0)
         self.data: dict[str, Any] | None = None
         self.state.param.watch(self.draw, ["result", "shown", "backlash_unit"])
+        self.state.param.watch(self._present, ["present", "stage"])
         self.draw()
+        self._present()
 
     def __panel__(self):
-        return self.pane
+        return self.view
+
+    def _present(self, *_: Any) -> None:
+        """Presented, the drawing fills its cell beside the time history, with larger fonts."""
+        on = presents(self.state, "motion")
+        fig = self.parts["figure"]
+        figure_fonts(fig, on)
+        mode = "stretch_both" if on else "stretch_width"
+        # set on the Bokeh models, not the pane: the pane would copy their stylesheets back
+        # into its own parameters, which take only strings
+        self.view.sizing_mode = mode
+        for model in (self.layout, fig):
+            if model.sizing_mode != mode:
+                model.sizing_mode = mode
+        self.parts["clock"].styles = {**self.parts["clock"].styles,
+                                      "font-size": "17px" if on else "12px"}
 
     def draw(self, *_: Any) -> None:
         """Send the current run's frames (and its first frame's teeth) to the page."""

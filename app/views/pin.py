@@ -18,7 +18,9 @@ from ..pinning import pin_text
 from ..state import ExplorerState
 from ..ui.labels import GEAR_COLOR, PIN_COLOR
 from ..ui.plots import run_label
+from ..ui.present import PANE_CSS, mark, presents
 from ..ui.widgets import message
+from .present import present_button
 
 
 class PinView(pn.viewable.Viewer):
@@ -36,14 +38,22 @@ class PinView(pn.viewable.Viewer):
         self.pin_button.on_click(lambda e: self.pin())
         self.unpin_button.on_click(lambda e: self.unpin())
         self.caption = pn.pane.HTML("", css_classes=["pin-caption"], sizing_mode="stretch_width",
-                                    margin=(0, 10))
+                                    margin=(0, 10), stylesheets=[PANE_CSS])
+        self.present_button = present_button(s, "pin")
         s.param.watch(self._draw, ["pinned", "pinned_result", "result", "phases"])
+        s.param.watch(self._present, ["present", "stage"])
         self._draw()
+        self._present()
 
     def __panel__(self):
         return pn.Column(pn.Row(self.pin_button, self.unpin_button, self.caption,
-                                sizing_mode="stretch_width"),
+                                self.present_button, sizing_mode="stretch_width"),
                          message(self.state, "pinned"), sizing_mode="stretch_width")
+
+    def _present(self, *_: Any) -> None:
+        """Presented, the caption naming A and B is as large as the badge's sentence; the
+        buttons stay, so a lecture can pin another run."""
+        mark([self.caption], presents(self.state, "pin"))
 
     def pin(self) -> None:
         """Keep the run the page asks for as A."""
@@ -80,5 +90,5 @@ def _line(text: str, color: str, css: str, dashed: bool = False) -> str:
     border = "dashed" if dashed else "solid"
     swatch = (f'<span style="display:inline-block;width:22px;height:0;margin-right:6px;'
               f'vertical-align:middle;border-top:2px {border} {color}"></span>')
-    return (f'<div class="{css}" style="font-size:12.5px;color:#333">{swatch}'
+    return (f'<div class="{css} pin-line" style="font-size:12.5px;color:#333">{swatch}'
             f'{html.escape(text)}</div>')

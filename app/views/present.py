@@ -1,7 +1,10 @@
-"""Presentation mode's switch, and the few sliders a lecture needs while the sidebar is hidden.
+"""Presentation mode's switches, and the few sliders a lecture needs while the sidebar is hidden.
 
 :class:`PresentView` is a button in the page's header: "Present" sets ``state.present`` (the URL
-key ``present``), "Exit presentation" clears it. While presenting, the button carries the class
+key ``present``) to show the time history and the section, "Exit presentation" clears it.
+:func:`present_button` is the "Present this" button the other presentable views carry (the
+diagram, the gear in motion, the pin, the Maps tab): it presents that view instead
+(``state.stage``, :data:`app.ui.present.STAGES`). While presenting, the button carries the class
 that the template's stylesheet keys on (:data:`app.ui.present.PAGE_MARK`), which hides the
 sidebar, and Λ and φ₂ get sliders beside the button. The other views
 follow ``state.present`` themselves; the dashboard hides what a lecture does not need.
@@ -14,7 +17,7 @@ import panel as pn
 import param
 
 from ..state import ExplorerState
-from ..ui.present import PAGE_MARK, mark
+from ..ui.present import PAGE_MARK, STAGES, mark
 from ..ui.widgets import set_value
 
 #: The sliders kept while presenting.
@@ -40,7 +43,7 @@ class PresentView(pn.viewable.Viewer):
                                         css_classes=["present-toggle"], align="center",
                                         description="Large fonts and plots for a projector "
                                                     "(present=true in the URL)")
-        self.button.on_click(lambda e: set_value(s, "present", not s.present))
+        self.button.on_click(lambda e: s.param.update(present=not s.present, stage="plots"))
         self.slider = {n: self._slider(n) for n in ESSENTIAL}
         self.sliders = pn.Row(*self.slider.values(),
                               css_classes=["present-sliders"], visible=s.present, margin=(0, 10))
@@ -83,3 +86,21 @@ class PresentView(pn.viewable.Viewer):
         self.button.label = "Exit presentation" if on else "Present"
         mark([self.header], on, PAGE_MARK)
         self.sliders.visible = on
+
+
+def present_button(state: ExplorerState, stage: str, width: int = 120) -> pn.widgets.Button:
+    """A "Present this" button that presents ``stage`` (a key of :data:`STAGES`); hidden while
+    presenting, when the header's "Exit presentation" is the way back."""
+    if stage not in STAGES:
+        raise ValueError(f"stage must be one of {sorted(STAGES)}, not {stage!r}")
+    button = pn.widgets.Button(label="Present this", width=width, align="center",
+                               css_classes=["present-this", f"present-{stage}"],
+                               description="Show this view alone, large, for a projector "
+                                           f"(present=true&stage={stage} in the URL)")
+    button.on_click(lambda e: state.param.update(stage=stage, present=True))
+
+    def follow(*_: Any) -> None:
+        button.visible = not state.present
+    state.param.watch(follow, "present")
+    follow()
+    return button

@@ -38,7 +38,7 @@ from bokeh.plotting import figure
 from ..state import ExplorerState
 from ..ui.labels import (ACTIVE_COLOR, GEAR_COLOR, MARK_COLOR, PIN_COLOR, REVERSE_COLOR,
                          STICK_COLOR, TOOTH_COLOR)
-from ..ui.present import figure_fonts
+from ..ui.present import figure_fonts, presents
 from ..ui.plots import caption, file_stem, full_screen, name_saved_png, time_history_data
 
 #: The figure's height; while presenting it fills its cell of the Explorer's grid.
@@ -105,7 +105,7 @@ class TimeHistoryView(pn.viewable.Viewer):
         #: What the current ranges were framed for: the axis labels and the data's time span.
         self._frame: tuple | None = None
         self.state.param.watch(self.draw, ["result", "shown", "backlash_unit", "pinned_result"])
-        self.state.param.watch(self._present, "present")
+        self.state.param.watch(self._present, ["present", "stage"])
         self.draw()
         self._present()
 
@@ -114,7 +114,7 @@ class TimeHistoryView(pn.viewable.Viewer):
 
     def _present(self, *_: Any) -> None:
         """Presentation mode: a figure as large as its cell, larger fonts."""
-        on = self.state.present
+        on = presents(self.state, "time_history")
         figure_fonts(self.fig, on)
         # beside a figure half the page wide, the legend goes below it, in two columns
         legend = self.fig.legend[0]

@@ -1,0 +1,84 @@
+"""Browser tests: each "Present this" button presents its view alone, large, on a projector.
+
+The diagram (with continuation), the gear in motion (beside the time history), the pinned
+comparison and the Maps tab's map each carry the button. A click puts ``present=true`` and
+``stage=<view>`` in the URL, hides the sidebar, and at 1280×720 the view's figure fills most of
+the window below the header, with presenting fonts, and nothing scrolls either way. Sizes and
+fonts are read from the page: the figures' boxes from their Bokeh views, the tick fonts from
+their models.
+"""
+from __future__ import annotations
+
+import pytest
+from playwright.sync_api import expect
+
+from test_ui import open_dashboard, painted
+
+pytestmark = [pytest.mark.ui, pytest.mark.timeout(300)]
+
+PROJECTOR = {"width": 1280, "height": 720}
+#: A short run: the layout does not depend on the run's length.
+SHORT = "?periods=20&transient=20"
+
+#: The presented figure's box and tick font, the page's scroll sizes, the header's bottom.
+LOOK = """(name) => {
+  const d = Bokeh.documents[0];
+  const fig = [...d._all_models.values()].find(m => m.name === name);
+  const view = fig && Bokeh.index.find_one(fig);
+  const r = view ? view.el.getBoundingClientRect() : null;
+  const main = document.getElementById('main');
+  return {
+    box: r && {left: r.left, top: r.top, right: r.right, bottom: r.bottom, width: r.width, height: r.height},
+    ticks: fig ? parseFloat(fig.below[0].major_label_text_font_size) : null,
+    width: document.scrollingElement.scrollWidth, height: document.scrollingElement.scrollHeight,
+    mainScroll: main.scrollHeight, mainClient: main.clientHeight,
+    mainScrollW: main.scrollWidth, mainClientW: main.clientWidth,
+    header: document.getElementById('header').getBoundingClientRect().bottom,
+    vw: window.innerWidth, vh: window.innerHeight,
+  };
+}"""
+
+#: stage → (the figure's Bokeh name, least share of the height below the header, least share
+#: of the window's width).
+STAGES = {"diagram": ("bifurcation", 0.6, 0.6),
+          "motion": ("motion", 0.6, 0.45),
+          "pin": ("section", 0.5, 0.4),
+          "maps": ("map_figure", 0.6, 0.7)}
+
+
+@pytest.mark.parametrize("stage", sorted(STAGES))
+def test_present_this_fills_a_projector_with_that_view(page, dashboard_server, stage):
+    """Its "Present this" button presents the view: the URL says so, the sidebar is gone, the
+    figure fills most of a 1280×720 window at presenting fonts, and nothing scrolls."""
+    name, tall, wide = STAGES[stage]
+    page.set_viewport_size(PROJECTOR)
+    open_dashboard(page, dashboard_server, SHORT)
+    if stage == "pin":
+        page.locator(".pin-run button").first.click()
+        page.wait_for_function("() => /[?&]pin=[^&]/.test(window.location.search)", timeout=60_000)
+    if stage == "maps":
+        page.locator(".bk-tab", has_text="Maps").first.click()
+    button = page.locator(f".present-{stage} button").first
+    expect(button).to_have_text("Present this")
+    button.click()
+    page.wait_for_function(
+        "(st) => { const q = new URLSearchParams(window.location.search);"
+        " return q.get('present') === 'true' && q.get('stage') === st; }", arg=stage, timeout=60_000)
+    expect(page.get_by_role("button", name="Exit presentation")).to_be_visible(timeout=60_000)
+    page.wait_for_function("() => document.getElementById('sidebar').getBoundingClientRect().width === 0",
+                           timeout=60_000)
+    page.wait_for_function(f"() => ({LOOK})('{name}').ticks === 17", timeout=60_000)
+    # the browser lays the stretching figure out after the server's last change
+    page.wait_for_function(
+        f"([h, w]) => {{ const l = ({LOOK})('{name}'); return l.box != null &&"
+        " l.box.height >= h * (l.vh - l.header) && l.box.width >= w * l.vw; }",
+        arg=[tall, wide], timeout=60_000)
+    painted(page)
+    look = page.evaluate(LOOK, name)
+    b = look["box"]
+    assert look["width"] <= look["vw"] and look["height"] <= look["vh"], look
+    assert look["mainScroll"] <= look["mainClient"], look
+    assert look["mainScrollW"] <= look["mainClientW"], look
+    assert look["header"] <= b["top"] and b["bottom"] <= look["vh"] + 1, look
+    assert 0 <= b["left"] and b["right"] <= look["vw"], look
+    expect(button).to_be_hidden()
