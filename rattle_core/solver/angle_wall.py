@@ -46,6 +46,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 from scipy.signal import butter, sosfiltfilt
 
+from ..measure.sampling import JITTER_TOLERANCE
 from ..model.params import check_range
 
 #: Order of the two Butterworth low-passes (each applied forwards and backwards).
@@ -94,7 +95,7 @@ def _rate(time_s: np.ndarray) -> float:
     if time_s.size < 8 or not np.all(dt > 0) or not np.all(np.isfinite(time_s)):
         raise ValueError("time_s must hold at least 8 finite, strictly increasing times")
     step = float(np.median(dt))
-    if np.max(np.abs(dt - step)) > 1e-6 * step:
+    if np.max(np.abs(dt - step)) > JITTER_TOLERANCE * step:
         raise ValueError("time_s must be uniformly sampled (resample the measurement first)")
     return 1.0 / step
 
