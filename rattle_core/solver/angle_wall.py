@@ -29,12 +29,15 @@ record are therefore not offered to a run (:attr:`FilteredAngle.usable_s`;
 The wall is then the cubic spline through ``Δθ`` at the samples (not-a-knot), written as a
 :class:`~rattle_core.solver.wall.PiecewiseWall` with one order, ``A(s)`` the spline's cubic on a
 sample interval and ``Φ ≡ 0``, so the replay kernel reads it exactly as it reads an order
-reconstruction.  Its bounds are rigorous on each piece by the same construction: with
+reconstruction.  Its bounds are rigorous on each piece by the same construction (:func:`spline_wall`): with
 ``Φ ≡ 0`` the polynomials of :mod:`~rattle_core.solver.wall` are ``P_n = A⁽ⁿ⁾``, and
 ``|A⁽ⁿ⁾(s)| ≤ Σ_i |c_i| (L/2)ⁱ`` holds for the Taylor coefficients ``c_i`` of ``A⁽ⁿ⁾`` about
 the piece's midpoint for every ``s`` in the piece (the triangle inequality on
 ``|s − L/2| ≤ L/2``); the bounds carry the wall's relative margin of ``10⁻¹²`` for the rounding
-of those sums.  A spline's third derivative jumps at the knots, which is why the bounds are
+of those sums.  A cubic's fourth and fifth derivatives vanish, so their bounds would be 0; the
+event search reads a zero bound as "no bound" and would then creep along a release, so they
+are raised to ``FLOOR`` times the piece's third-derivative bound over ``L`` and ``L²`` (any
+positive number bounds a zero).  A spline's third derivative jumps at the knots, which is why the bounds are
 per piece and the event search never steps across a piece's end.
 """
 from __future__ import annotations
@@ -48,6 +51,7 @@ from scipy.signal import butter, sosfiltfilt
 
 from ..measure.sampling import JITTER_TOLERANCE
 from ..model.params import check_range
+from .wall import piecewise_wall
 
 #: Order of the two Butterworth low-passes (each applied forwards and backwards).
 FILTER_ORDER = 8
@@ -55,6 +59,8 @@ FILTER_ORDER = 8
 EDGE_PERIODS = 20.0
 #: The mean rotation's low-pass, as a fraction of the lowest fundamental frequency.
 MEAN_FRACTION = 0.25
+#: The bounds of a cubic's vanishing fourth and fifth derivatives, relative (module docstring).
+FLOOR = 1e-12
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -158,6 +164,22 @@ def filter_angle(time_s, *, cutoff_hz: float, angle_rad=None, speed_rpm=None,
     return FilteredAngle(t, fluct, mean, cutoff_hz, mean_hz, fs)
 
 
+def spline_wall(time_ref: np.ndarray, values: np.ndarray, first: int, stop: int,
+                decel: np.ndarray):
+    """The :class:`~rattle_core.solver.wall.PiecewiseWall` of the not-a-knot cubic spline
+    through ``values`` at ``time_ref`` (reference units), on its pieces ``first .. stop − 1``,
+    with flight deceleration ``decel`` (shape ``(stop − first, 2)``); bounds as in the module
+    docstring."""
+    t0, length, amp, phase = spline_pieces(time_ref, values)
+    sl = slice(first, stop)
+    wall = piecewise_wall(t0[sl], length[sl], amp[sl], phase[sl], decel)
+    bounds = wall.bounds.copy()
+    b3 = bounds[:, 3] + np.finfo(np.float64).tiny
+    bounds[:, 4] = np.maximum(bounds[:, 4], FLOOR * b3 / wall.length)
+    bounds[:, 5] = np.maximum(bounds[:, 5], FLOOR * b3 / wall.length ** 2)
+    return dataclasses.replace(wall, bounds=bounds)
+
+
 def spline_pieces(time_ref: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray,
                                                                       np.ndarray, np.ndarray]:
     """``(t0, length, amp, phase)`` of a :class:`~rattle_core.solver.wall.PiecewiseWall` that is
@@ -171,5 +193,5 @@ def spline_pieces(time_ref: np.ndarray, values: np.ndarray) -> tuple[np.ndarray,
     return (np.ascontiguousarray(time_ref[:-1]), np.diff(time_ref), amp, np.zeros((n, 1, 5)))
 
 
-__all__ = ["FilteredAngle", "filter_angle", "check_cutoff", "spline_pieces", "FILTER_ORDER",
+__all__ = ["FilteredAngle", "filter_angle", "check_cutoff", "spline_pieces", "spline_wall", "FILTER_ORDER",
            "EDGE_PERIODS"]

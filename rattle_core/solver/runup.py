@@ -24,7 +24,7 @@ from scipy.interpolate import CubicSpline
 from ..model.gearbox import Gearbox
 from ..model.params import check_range
 from .kernel import FLIGHT
-from .angle_wall import FilteredAngle, spline_pieces
+from .angle_wall import FilteredAngle, spline_wall
 from .replay import WallRun, run_wall
 from .wall import PiecewiseWall, piecewise_wall
 
@@ -398,8 +398,7 @@ def angle_runup_wall(gearbox: Gearbox, gear: int | str, angle: FilteredAngle, st
         raise ValueError(f"gear {g.name!r}: the measured angle does not fluctuate over the run")
     mass = g.inertia_kgm2 / g.base_radius_m ** 2
     tau = omega_ref * (t - t[ia])
-    t0, length, amp, phase = spline_pieces(tau, angle.fluctuation_rad * (scale / H_ref))
-    t0, length, amp, phase = t0[ia:ib], length[ia:ib], amp[ia:ib], phase[ia:ib]
+    length = np.diff(tau[ia:ib + 1])
     if drag is None:
         torque = np.full(ts.shape, g.drag_torque_Nm)
     else:
@@ -412,7 +411,7 @@ def angle_runup_wall(gearbox: Gearbox, gear: int | str, angle: FilteredAngle, st
     decel = np.empty((length.size, 2))
     decel[:, 0] = qn[:-1]
     decel[:, 1] = (qn[1:] - qn[:-1]) / length
-    wall = piecewise_wall(t0, length, amp, phase, decel)
+    wall = spline_wall(tau, angle.fluctuation_rad * (scale / H_ref), ia, ib, decel)
     t_a = float(t[ia])
     duration_s = float(t[ib] - t_a)
     return RunupWall(wall=wall, omega_ref=omega_ref, H_ref=H_ref, mass=mass,
