@@ -171,3 +171,18 @@ def test_cli_runup_angle_wall_and_its_refusals(tmp_path, capsys):
         assert main(["runup", str(toml), "--wall", "angle", *args, "--out", str(out)]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and text in err[0]
+
+
+def test_cache_key_holds_the_wall_and_the_cutoff():
+    """The run-up cache tells the walls apart: the order reconstruction, and the measured angle
+    at two cutoffs, give three different keys, and the same angle twice the same key."""
+    from rattle_core.store.cache import canonical_hash as request_key
+    from rattle_core.store.runups import runup_request
+    box = Gearbox.from_text(STEADY)
+    t = np.arange(int(4 * FS)) / FS
+    speed = np.full(t.size, 1500.0)
+    keys = [request_key(runup_request(box, 1500.0, 1600.0, 2.0))]
+    for cutoff in (300.0, 400.0, 400.0):
+        fa = filter_angle(t, cutoff_hz=cutoff, speed_rpm=speed, engine_order=2.0)
+        keys.append(request_key(runup_request(box, 1500.0, 1600.0, None, fa)))
+    assert len(set(keys[:3])) == 3 and keys[2] == keys[3]
