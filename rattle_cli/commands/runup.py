@@ -20,8 +20,16 @@ def add_parser(sub) -> None:
     p.add_argument("--rpm-to", dest="rpm_to", type=float, metavar="B",
                    help="shaft speed at the end [rpm] (default: the measurement's highest); "
                         "below A, a run-down")
-    p.add_argument("--duration", type=float, default=DEFAULT_DURATION_S, metavar="S",
-                   help=f"length of the linear ramp [s] (default {DEFAULT_DURATION_S:g})")
+    p.add_argument("--duration", type=float, metavar="S",
+                   help=f"length of the linear ramp [s] (default {DEFAULT_DURATION_S:g}; not "
+                        "with --wall angle, whose run lasts as long as the measurement's)")
+    p.add_argument("--wall", choices=("orders", "angle"), default="orders",
+                   help="the driving tooth's motion: the order reconstruction over a linear "
+                        "ramp (default), or the measured angle itself, low-pass filtered at "
+                        "--cutoff-hz, over the measurement's own stretch from A to B")
+    p.add_argument("--cutoff-hz", dest="cutoff_hz", type=float, metavar="F",
+                   help="cutoff of the measured angle's zero-phase low-pass [Hz], below the "
+                        "sampling's Nyquist frequency (needed with --wall angle)")
     p.add_argument("--out", required=True, metavar="RUNUP.csv",
                    help="one row per impact: t_s, rpm, gear, flank, impulse_Ns")
     p.add_argument("--wav", metavar="RUNUP.wav",
@@ -55,22 +63,46 @@ def run(args: argparse.Namespace) -> int:
     if args.png is not None:
         png = check_output(args.png or str(out.with_suffix(".png")), (".png",), "--png")
     distinct_outputs(out, intervals_out, wav, png)
+    if args.wall == "angle":
+        if args.cutoff_hz is None:
+            raise CLIError("--wall angle needs --cutoff-hz F (the low-pass cutoff, in Hz)")
+        if args.duration is not None:
+            raise CLIError("--duration does not apply to --wall angle: the run lasts as long as "
+                           "the measurement takes from --rpm-from to --rpm-to")
+    elif args.cutoff_hz is not None:
+        raise CLIError("--cutoff-hz applies to --wall angle only")
+    duration = DEFAULT_DURATION_S if args.duration is None else args.duration
     gearbox = Gearbox.from_toml(args.file)
+    angle = None
+    if args.wall == "angle":
+        angle = _measured_angle(args.file, gearbox, args.cutoff_hz)
+        lo_s, hi_s = angle.usable_s
+        if args.rpm_from is None or args.rpm_to is None:
+            t = angle.time_s[(angle.time_s >= lo_s) & (angle.time_s <= hi_s)]
+            if t.size < 2:
+                raise CLIError(f"the measurement is too short for --cutoff-hz {args.cutoff_hz:g}")
+            rpm = angle.mean_rpm(t)
+            lo_r, hi_r = float(rpm.min()), float(rpm.max())
     lo, hi = gearbox.excitation.rpm_range
-    if gearbox.excitation.order_map is not None:
+    if angle is not None:
+        if args.rpm_from is None or args.rpm_to is None:
+            lo, hi = lo_r, hi_r
+    elif gearbox.excitation.order_map is not None:
         lo, hi = float(gearbox.excitation.order_map.rpm[0]), float(gearbox.excitation.order_map.rpm[-1])
     elif args.rpm_from is None or args.rpm_to is None:
         raise CLIError("a gearbox with constant orders needs --rpm-from and --rpm-to")
     rpm_from = lo if args.rpm_from is None else args.rpm_from
     rpm_to = hi if args.rpm_to is None else args.rpm_to
-    for name, value in (("--rpm-from", rpm_from), ("--rpm-to", rpm_to), ("--duration", args.duration)):
+    for name, value in (("--rpm-from", rpm_from), ("--rpm-to", rpm_to), ("--duration", duration)):
         if not math.isfinite(value):
             raise CLIError(f"{name} = {value!r} must be a finite number")
     sound = wav is not None or png is not None or args.compare
     try:
-        check_run(gearbox, rpm_from, rpm_to, args.duration)
+        if angle is None:
+            check_run(gearbox, rpm_from, rpm_to, duration)
         grid = verdict_grid(rpm_from, rpm_to) if (png is not None or args.compare) else None
-        res = gearbox_runup(gearbox, rpm_from, rpm_to, args.duration, sound=sound)
+        res = gearbox_runup(gearbox, rpm_from, rpm_to, None if angle else duration,
+                            sound=sound, angle=angle)
     except ValueError as exc:
         raise CLIError(str(exc)) from None
     for name, rr in res.replays.items():
@@ -94,7 +126,11 @@ def run(args: argparse.Namespace) -> int:
         from rattle_core.store.verdicts import cached_verdict
         verdict = cached_verdict(gearbox, grid, ensemble_runs=0)
     if args.compare:
-        down = gearbox_runup(gearbox, rpm_to, rpm_from, args.duration, sound=False)
+        try:
+            down = gearbox_runup(gearbox, rpm_to, rpm_from, None if angle else duration,
+                                 sound=False, angle=angle)
+        except ValueError as exc:
+            raise CLIError(f"the run-down: {exc}") from None
         comparison = compare(res, verdict, down)
         for name, row in comparison.onsets.set_index("gear").iterrows():
             info(args, f"{name}: onset on the run {_rpm(row.onset_run_rpm)}, on the run-down "
@@ -110,6 +146,28 @@ def run(args: argparse.Namespace) -> int:
         runup_png(png, res, comparison, verdict)
         info(args, f"wrote {png}")
     return 0
+
+
+def _measured_angle(path, gearbox, cutoff_hz: float):
+    """The filtered angle of the measurement GEARBOX.toml names, read with its options."""
+    import tomllib
+    from pathlib import Path
+
+    from rattle_core.batch.runup import measured_angle
+    from rattle_core.measure.measurement import measurement_options
+    from rattle_core.measure.orders import SAMPLE_RUNUP
+    with open(path, "rb") as f:
+        exc_t = tomllib.load(f).get("excitation", {})
+    name = exc_t.get("measurement")
+    if not isinstance(name, str):
+        raise CLIError("--wall angle needs a gearbox driven by a measurement "
+                       "([excitation] measurement = \"FILE.csv\"), not by constant orders")
+    file = SAMPLE_RUNUP if name == "sample" else Path(path).parent / name
+    try:
+        return measured_angle(file, cutoff_hz, gearbox.excitation.engine_order,
+                              **measurement_options(exc_t))
+    except ValueError as exc:
+        raise CLIError(str(exc)) from None
 
 
 def _rpm(value: float) -> str:

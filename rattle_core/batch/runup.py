@@ -50,7 +50,8 @@ from ..analysis.loudness import (SAMPLE_RATE, SKIP_S, band_levels, loudness_of_l
 from ..analysis.sound import render
 from ..model.gearbox import Gearbox
 from ..model.target import fail_ranges
-from ..solver.runup import check_run, replay
+from ..solver.angle_wall import FilteredAngle, filter_angle
+from ..solver.runup import check_run, measured_window, replay, replay_angle
 from .executor import default_threads
 from .gearbox import GEARBOX, Verdict
 
@@ -99,6 +100,12 @@ class GearboxRunup:
     loudness_t: np.ndarray | None = None
     level_dba_t: np.ndarray | None = None
     gear_loudness_t: dict | None = None
+    #: the driving tooth's motion: "orders" (the order reconstruction) or "angle" (the measured
+    #: angle, low-pass filtered at ``cutoff_hz``)
+    wall: str = "orders"
+    cutoff_hz: float | None = None
+    #: mean shaft speed [rpm] of time from the start, for a run driven by the measured angle
+    mean_rpm: Any = None
 
     @property
     def sample_rate(self) -> int:
@@ -111,6 +118,11 @@ class GearboxRunup:
     def rpm_at(self, t_s) -> np.ndarray:
         """The run's mean shaft speed [rpm] at times ``t_s`` [s]."""
         t = np.asarray(t_s, dtype=np.float64)
+        if self.wall == "angle":
+            # the measurement's own speed: its function, or the stored series read back
+            if self.mean_rpm is not None:
+                return np.asarray(self.mean_rpm(t), dtype=np.float64)
+            return np.interp(t, self.time_s, self.rpm_t)
         return self.rpm_from + (self.rpm_to - self.rpm_from) * t / self.duration_s
 
     @property
@@ -167,9 +179,13 @@ def rattle_intervals(t_s: np.ndarray, rpm: np.ndarray, engine_order: float,
 
 
 def _gear_task(gearbox: Gearbox, gi: int, rpm_from: float, rpm_to: float, duration_s: float,
-               sound: bool):
+               sound: bool, angle: FilteredAngle | None = None,
+               window: tuple[float, float] | None = None):
     """One gear: its replay; with ``sound``, its pressure [Pa], band levels and own N(t)."""
-    rr = replay(gearbox, gi, rpm_from, rpm_to, duration_s)
+    if angle is None:
+        rr = replay(gearbox, gi, rpm_from, rpm_to, duration_s)
+    else:
+        rr = replay_angle(gearbox, gi, angle, *window)
     if not sound:
         return rr, None, None, None
     p = gearbox.transfer_pa_per_ns * render(rr.impact_t, rr.impact_impulse, duration_s,
@@ -180,8 +196,9 @@ def _gear_task(gearbox: Gearbox, gi: int, rpm_from: float, rpm_to: float, durati
     return rr, p, lv, loudness_of_levels(lv, p.size).loudness_t
 
 
-def gearbox_runup(gearbox: Gearbox, rpm_from: float, rpm_to: float, duration_s: float, *,
-                  sound: bool = True, threads: int | None = None) -> GearboxRunup:
+def gearbox_runup(gearbox: Gearbox, rpm_from: float, rpm_to: float, duration_s: float | None,
+                  *, sound: bool = True, threads: int | None = None,
+                  angle: FilteredAngle | None = None) -> GearboxRunup:
     """Every gear of ``gearbox`` over a linear run from ``rpm_from`` to ``rpm_to`` in
     ``duration_s`` seconds, with its sound, ``N(t)`` and ``L_AF(t)`` (module docstring).
 
@@ -197,6 +214,12 @@ def gearbox_runup(gearbox: Gearbox, rpm_from: float, rpm_to: float, duration_s: 
         Render and measure the sound (False: impacts and intervals only).
     threads : int, optional
         Gears replayed at once (default: the cores, at most one per gear).
+    angle : FilteredAngle, optional
+        Drive the gears by the measured angle itself, filtered
+        (:func:`measured_angle`), instead of the order reconstruction: the run is then the
+        measurement's own stretch from ``rpm_from`` to ``rpm_to``
+        (:func:`~rattle_core.solver.runup.measured_window`), its duration and its speed over
+        time the measurement's, and ``duration_s`` must be None.
 
     Raises
     ------
@@ -205,7 +228,16 @@ def gearbox_runup(gearbox: Gearbox, rpm_from: float, rpm_to: float, duration_s: 
     """
     if not isinstance(gearbox, Gearbox):
         raise TypeError(f"gearbox must be a Gearbox, got {type(gearbox).__name__}")
-    check_run(gearbox, rpm_from, rpm_to, duration_s)
+    window = None
+    if angle is not None:
+        if duration_s is not None:
+            raise ValueError(f"duration_s = {duration_s!r}: a run driven by the measured angle "
+                             "lasts as long as the measurement takes between the two speeds; "
+                             "give duration_s=None")
+        window = measured_window(angle, rpm_from, rpm_to)
+        duration_s = window[1] - window[0]
+    else:
+        check_run(gearbox, rpm_from, rpm_to, duration_s)
     rpm_from, rpm_to, duration_s = float(rpm_from), float(rpm_to), float(duration_s)
     if sound and duration_s < 0.1:
         raise ValueError(f"duration_s = {duration_s!r} must be at least 0.1 s for the sound's "
@@ -214,7 +246,8 @@ def gearbox_runup(gearbox: Gearbox, rpm_from: float, rpm_to: float, duration_s: 
     threads = min(ng, default_threads()) if threads is None else int(threads)
     if threads < 1:
         raise ValueError(f"threads = {threads!r} must be at least 1")
-    args = [(gearbox, gi, rpm_from, rpm_to, duration_s, sound) for gi in range(ng)]
+    args = [(gearbox, gi, rpm_from, rpm_to, duration_s, sound, angle, window)
+            for gi in range(ng)]
     if threads > 1:
         with ThreadPoolExecutor(threads) as pool:
             parts = list(pool.map(lambda a: _gear_task(*a), args))
@@ -222,8 +255,10 @@ def gearbox_runup(gearbox: Gearbox, rpm_from: float, rpm_to: float, duration_s: 
         parts = [_gear_task(*a) for a in args]
     names = [g.name for g in gearbox.gears]
     replays = {n: p[0] for n, p in zip(names, parts)}
+    wall = {} if angle is None else {"wall": "angle", "cutoff_hz": angle.cutoff_hz,
+                                     "mean_rpm": replays[names[0]].runup.mean_rpm}
     if not sound:
-        return GearboxRunup(gearbox, rpm_from, rpm_to, duration_s, replays)
+        return GearboxRunup(gearbox, rpm_from, rpm_to, duration_s, replays, **wall)
     pressures = [p[1] for p in parts]
     total = np.sum(pressures, axis=0)
     n = total.size
@@ -241,9 +276,30 @@ def gearbox_runup(gearbox: Gearbox, rpm_from: float, rpm_to: float, duration_s: 
     # the level is sampled from the first sample, the loudness on ISO 532-1's own grid: both
     # every 2 ms; the level is read on the loudness's times
     level_on_n = np.interp(t_n, t_lv, level_t)
+    rpm_t = (rpm_from + (rpm_to - rpm_from) * t_n / duration_s if angle is None
+             else wall["mean_rpm"](t_n))
     return GearboxRunup(gearbox, rpm_from, rpm_to, duration_s, replays, pressure_pa=total,
-                        time_s=t_n, rpm_t=rpm_from + (rpm_to - rpm_from) * t_n / duration_s,
-                        loudness_t=n_t, level_dba_t=level_on_n, gear_loudness_t=gear_n)
+                        time_s=t_n, rpm_t=rpm_t, loudness_t=n_t, level_dba_t=level_on_n,
+                        gear_loudness_t=gear_n, **wall)
+
+
+def measured_angle(path, cutoff_hz: float, engine_order: float = 2.0, **options: Any
+                   ) -> FilteredAngle:
+    """The shaft angle of a measurement file (:func:`~rattle_core.measure.measurement.
+    read_measurement` with its reading ``options``, put on a uniform grid as the order analysis
+    puts it), split into its mean rotation and its fluctuation low-pass filtered at
+    ``cutoff_hz`` (:func:`~rattle_core.solver.angle_wall.filter_angle`)."""
+    from ..measure.measurement import read_measurement
+    from ..measure.sampling import regularise
+    meas = read_measurement(path, **options)
+    t, w, _, _ = regularise(meas.time_s, meas.speed_rpm, lambda i: f"sample {i}", None)
+    if t.size < 2:
+        raise ValueError(f"{meas.detected.source}: too few samples for a measured angle")
+    rate = 1.0 / float(np.median(np.diff(t)))
+    try:
+        return filter_angle(t, cutoff_hz=cutoff_hz, speed_rpm=w, engine_order=engine_order)
+    except ValueError as exc:
+        raise ValueError(f"{meas.detected.source} (sampled at {rate:.6g} Hz): {exc}") from None
 
 
 def verdict_grid(rpm_from: float, rpm_to: float, step: float = GRID_STEP_RPM) -> np.ndarray:

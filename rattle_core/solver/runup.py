@@ -24,6 +24,7 @@ from scipy.interpolate import CubicSpline
 from ..model.gearbox import Gearbox
 from ..model.params import check_range
 from .kernel import FLIGHT
+from .angle_wall import FilteredAngle, spline_wall
 from .replay import WallRun, run_wall
 from .wall import PiecewiseWall, piecewise_wall
 
@@ -33,6 +34,8 @@ DURATION_RANGE_S = (0.0, 3600.0)      # open at 0
 #: Knot spacing [rpm] of the interpolant when the orders are given as constants, not measured.
 CONSTANT_KNOT_RPM = 25.0
 DEFAULT_V_STICK = 1e-6
+#: Largest number of samples (pieces) a measured-angle wall may hold (about 160 bytes each).
+ANGLE_PIECE_BUDGET = 4_000_000
 
 DragFn = Callable[[np.ndarray], Any]
 
@@ -62,6 +65,8 @@ class RunupWall:
     duration_s: float
     engine_order: float
     gear: str
+    #: mean shaft speed [rpm] of physical time from the start, for a measured (not linear) run
+    mean_rpm: Callable[[np.ndarray], np.ndarray] | None = None
 
     def seconds(self, t) -> np.ndarray:
         """Physical time [s] from the start of the run, of dimensionless times."""
@@ -70,6 +75,8 @@ class RunupWall:
     def rpm_at(self, t_s) -> np.ndarray:
         """Mean shaft speed [rpm] at physical times ``t_s``."""
         t_s = np.asarray(t_s, dtype=np.float64)
+        if self.mean_rpm is not None:
+            return np.asarray(self.mean_rpm(t_s), dtype=np.float64)
         return self.rpm_from + (self.rpm_to - self.rpm_from) * t_s / self.duration_s
 
     @property
@@ -301,6 +308,130 @@ def runup_wall(gearbox: Gearbox, gear: int | str, rpm_from: float, rpm_to: float
                      rpm_to=rpm_to, duration_s=duration_s, engine_order=eo, gear=g.name)
 
 
+def measured_window(angle: FilteredAngle, rpm_from: float, rpm_to: float) -> tuple[float, float]:
+    """The stretch ``(start_s, end_s)`` of a measurement a run from ``rpm_from`` to ``rpm_to``
+    replays: from the first sample, clear of the filters' edges, at which the mean speed has
+    reached ``rpm_from`` to the first sample after it at which it has reached ``rpm_to``.
+
+    A speed the usable stretch's mean speed never reaches is refused with that stretch's range.
+    """
+    lo_s, hi_s = angle.usable_s
+    t = angle.time_s
+    inside = (t >= lo_s) & (t <= hi_s)
+    if lo_s >= hi_s or np.count_nonzero(inside) < 2:
+        raise ValueError(f"the measurement lasts {t[-1] - t[0]:.6g} s; the filters' edges take "
+                         f"{lo_s - t[0]:.6g} s at either end and leave nothing to replay")
+    ts = t[inside]
+    rpm = angle.mean_rpm(ts)
+    lo, hi = float(np.min(rpm)), float(np.max(rpm))
+    for name, value in (("rpm_from", rpm_from), ("rpm_to", rpm_to)):
+        v = check_range(name, value, 0.0, 1e5, lo_open=True)
+        if not lo <= v <= hi:
+            raise ValueError(f"{name} = {value!r} is outside the measurement's speed range "
+                             f"[{lo:g}, {hi:g}] rpm (its mean speed, clear of the filters' edges)")
+
+    def first(after: int, target: float) -> int:
+        rel = rpm[after:] - target
+        sign0 = np.sign(rel[0])
+        hit = np.nonzero((rel == 0.0) | (np.sign(rel) != sign0))[0]
+        return after + int(hit[0]) if sign0 != 0.0 else after
+
+    a = first(0, float(rpm_from))
+    b = first(a, float(rpm_to))
+    if b <= a:
+        raise ValueError(f"rpm_from = {rpm_from!r} and rpm_to = {rpm_to!r} are met at the same "
+                         "sample of the measurement; a run needs two different speeds it passes "
+                         "through one after the other")
+    return float(ts[a]), float(ts[b])
+
+
+def angle_runup_wall(gearbox: Gearbox, gear: int | str, angle: FilteredAngle, start_s: float,
+                     end_s: float, drag: DragFn | None = None) -> RunupWall:
+    """The wall of one gear driven by the measured angle itself, over ``[start_s, end_s]`` of
+    the measurement (:mod:`rattle_core.solver.angle_wall`), in reference units.
+
+    The tooth moves by ``R_d · speed_ratio · Δθ(t)``, ``Δθ`` the filtered fluctuation; the gear
+    feels its drag at the mean speed and the mean rotation's acceleration ``ψ̄''``, both taken
+    at the samples and linear between.  The run starts and ends at the samples nearest
+    ``start_s`` and ``end_s``, which must lie clear of the filters' edges
+    (:attr:`FilteredAngle.usable_s`).  The reference units are those of :func:`runup_wall` at
+    the mean speed of the start.
+    """
+    if not isinstance(gearbox, Gearbox):
+        raise TypeError(f"gearbox must be a Gearbox, got {type(gearbox).__name__}")
+    if not isinstance(angle, FilteredAngle):
+        raise TypeError(f"angle must be a FilteredAngle, got {type(angle).__name__}")
+    gi = _gear_index(gearbox, gear)
+    lo_s, hi_s = angle.usable_s
+    start_s = check_range("start_s", start_s, lo_s, hi_s)
+    end_s = check_range("end_s", end_s, start_s, hi_s, lo_open=True)
+    t = angle.time_s
+    ia = int(np.argmin(np.abs(t - start_s)))
+    ib = int(np.argmin(np.abs(t - end_s)))
+    if ib <= ia:
+        raise ValueError(f"end_s = {end_s!r} is less than one sample after start_s = {start_s!r}")
+    if ib - ia > ANGLE_PIECE_BUDGET:
+        raise ValueError(f"the run holds {ib - ia} samples; a measured-angle wall allows up to "
+                         f"{ANGLE_PIECE_BUDGET} (shorten the run)")
+    g = gearbox.gears[gi]
+    exc = gearbox.excitation
+    eo = float(exc.engine_order)
+    ts = t[ia:ib + 1]
+    rpm = angle.mean_rpm(ts)
+    rpm_a = float(rpm[0])
+    turns = eo * float(np.sum(0.5 * (rpm[1:] + rpm[:-1]) * np.diff(ts))) / 60.0
+    if turns > RUNUP_PERIOD_BUDGET:
+        raise ValueError(f"the run turns the fundamental {turns:.6g} times; the period budget "
+                         f"allows up to {RUNUP_PERIOD_BUDGET} (shorten the run)")
+    if drag is None and g.drag_torque_Nm is None:
+        drag = lambda r: gearbox.drag_Nm(gi, r)  # noqa: E731
+    omega_ref = eo * 2.0 * math.pi * rpm_a / 60.0
+    scale = g.drive_radius_m * g.speed_ratio
+    lo, hi = exc.rpm_range
+    theta1 = float(exc.shaft(np.array([min(max(rpm_a, lo), hi)]))[0][0, 0]) \
+        if lo <= rpm_a <= hi else math.nan
+    H_ref = g.drive_radius_m * (theta1 * g.speed_ratio)
+    if not H_ref > 0.0:
+        # no fundamental to measure by: the fluctuation's own size over the run
+        H_ref = scale * math.sqrt(2.0) * float(np.std(angle.fluctuation_rad[ia:ib + 1]))
+    if not H_ref > 0.0:
+        raise ValueError(f"gear {g.name!r}: the measured angle does not fluctuate over the run")
+    mass = g.inertia_kgm2 / g.base_radius_m ** 2
+    tau = omega_ref * (t - t[ia])
+    length = np.diff(tau[ia:ib + 1])
+    if drag is None:
+        torque = np.full(ts.shape, g.drag_torque_Nm)
+    else:
+        torque = np.asarray(drag(rpm), dtype=np.float64) * np.ones(ts.shape)
+        if not np.all(np.isfinite(torque)) or np.any(torque <= 0.0):
+            raise ValueError(f"drag must give a finite torque > 0 N·m at every speed of the run; "
+                             f"got {float(torque[~(np.isfinite(torque) & (torque > 0))][0])!r}")
+    accel = scale * angle.mean_speed(ts, 1)               # R_d · ratio · ψ̄'' [m/s²]
+    qn = (torque / g.base_radius_m + mass * accel) / (mass * H_ref * omega_ref ** 2)
+    decel = np.empty((length.size, 2))
+    decel[:, 0] = qn[:-1]
+    decel[:, 1] = (qn[1:] - qn[:-1]) / length
+    wall = spline_wall(tau, angle.fluctuation_rad * (scale / H_ref), ia, ib, decel)
+    t_a = float(t[ia])
+    duration_s = float(t[ib] - t_a)
+    return RunupWall(wall=wall, omega_ref=omega_ref, H_ref=H_ref, mass=mass,
+                     j=g.backlash_um * 1e-6 / H_ref, r=g.restitution, rpm_from=rpm_a,
+                     rpm_to=float(rpm[-1]), duration_s=duration_s, engine_order=eo, gear=g.name,
+                     mean_rpm=lambda s: angle.mean_rpm(t_a + np.asarray(s, dtype=np.float64)))
+
+
+def replay_angle(gearbox: Gearbox, gear: int | str, angle: FilteredAngle, start_s: float,
+                 end_s: float, *, drag: DragFn | None = None, start: str = "active",
+                 v_stick: float = DEFAULT_V_STICK, segments: bool = False) -> RunupReplay:
+    """Replay one gear driven by the measured angle itself over ``[start_s, end_s]`` of the
+    measurement (:func:`angle_runup_wall`); impact times are from the run's start, and
+    ``start``, ``v_stick``, ``segments`` are those of :func:`replay`."""
+    if start not in ("active", "reverse", "middle"):
+        raise ValueError(f"start = {start!r} must be 'active', 'reverse' or 'middle'")
+    return _replay_wall(angle_runup_wall(gearbox, gear, angle, start_s, end_s, drag), start,
+                        v_stick, segments)
+
+
 def replay(gearbox: Gearbox, gear: int | str, rpm_from: float, rpm_to: float,
            duration_s: float, *, drag: DragFn | None = None, start: str = "active",
            v_stick: float = DEFAULT_V_STICK, segments: bool = False) -> RunupReplay:
@@ -331,6 +462,12 @@ def replay(gearbox: Gearbox, gear: int | str, rpm_from: float, rpm_to: float,
     if start not in ("active", "reverse", "middle"):
         raise ValueError(f"start = {start!r} must be 'active', 'reverse' or 'middle'")
     rw = runup_wall(gearbox, gear, rpm_from, rpm_to, duration_s, drag)
+    return _replay_wall(rw, start, v_stick, segments)
+
+
+def _replay_wall(rw: RunupWall, start: str, v_stick: float, segments: bool) -> RunupReplay:
+    if start not in ("active", "reverse", "middle"):
+        raise ValueError(f"start = {start!r} must be 'active', 'reverse' or 'middle'")
     w = rw.wall
     if start == "middle":
         y = w.values(w.t0[0])
@@ -346,6 +483,6 @@ def replay(gearbox: Gearbox, gear: int | str, rpm_from: float, rpm_to: float,
                        x_m=run.x * rw.H_ref, v_mps=run.v * rw.H_ref * rw.omega_ref,
                        mode=run.mode, run=run, runup=rw)
 
-
 __all__ = ["RunupWall", "RunupReplay", "runup_wall", "replay", "check_run",
-           "RUNUP_PERIOD_BUDGET"]
+           "RUNUP_PERIOD_BUDGET", "measured_window", "angle_runup_wall", "replay_angle",
+           "ANGLE_PIECE_BUDGET"]
