@@ -16,7 +16,7 @@ shown (about 33 000 frames sent to the page), and the physical-units mode at 1×
 The frame rate of headless Chromium without a GPU is what is measured: a desktop browser
 with a GPU paints at its screen's rate.
 
-    .venv/bin/python benchmarks/bench_motion.py [--seconds 4]
+    .venv/bin/python benchmarks/bench_motion.py [--seconds 4] [--sizes 1280x720,1920x1080]
 """
 from __future__ import annotations
 
@@ -92,7 +92,15 @@ def measure(page, url: str, query: str, seconds: float, speed: float | None) -> 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=4.0, help="seconds counted per measure")
+    ap.add_argument("--sizes", default="1400x1000",
+                    help="browser window sizes, WIDTHxHEIGHT separated by commas")
     args = ap.parse_args()
+    try:
+        sizes = [tuple(int(v) for v in size.lower().split("x")) for size in args.sizes.split(",")]
+        if any(len(s) != 2 or not (320 <= s[0] <= 7680 and 240 <= s[1] <= 4320) for s in sizes):
+            raise ValueError
+    except ValueError:
+        ap.error(f"--sizes = {args.sizes!r}: give WIDTHxHEIGHT pairs from 320x240 to 7680x4320")
     from playwright.sync_api import sync_playwright
     from conftest import CHROMIUM, CHROMIUM_ARGS
 
@@ -103,11 +111,15 @@ def main() -> None:
     try:
         with sync_playwright() as pw:
             browser = pw.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS, headless=True)
-            page = browser.new_page(viewport={"width": 1400, "height": 1000})
-            print(f"{'case':<34} {'frames sent':>11} {'idle rAF/s':>11} {'drawn/s':>9} {'ratio':>7}")
-            for name, query, speed in cases:
-                n, idle, drawn = measure(page, url, query, args.seconds, speed)
-                print(f"{name:<34} {n:>11d} {idle:>11.1f} {drawn:>9.1f} {drawn / idle:>7.2f}")
+            print(f"{'window':<10} {'case':<34} {'frames sent':>11} {'idle rAF/s':>11} "
+                  f"{'drawn/s':>9} {'ratio':>7}")
+            for w, h in sizes:
+                page = browser.new_page(viewport={"width": w, "height": h})
+                for name, query, speed in cases:
+                    n, idle, drawn = measure(page, url, query, args.seconds, speed)
+                    print(f"{f'{w}x{h}':<10} {name:<34} {n:>11d} {idle:>11.1f} {drawn:>9.1f} "
+                          f"{drawn / idle:>7.2f}", flush=True)
+                page.close()
             browser.close()
     finally:
         server.stop()
