@@ -6,8 +6,9 @@ temperature), a speed at the start and at the end (below the start: a run-down) 
 length, all checked before anything runs.  The driving tooth follows the order reconstruction,
 or the measured angle itself low-pass filtered at a cutoff (the CLI's ``--wall angle``): that
 run is the measurement's own stretch between the two speeds, so its length is the
-measurement's and the duration input is disabled.  The replay runs as the session's ``gearbox-runup``
-job (:func:`app.work.runup.replay`, through the disk cache), with progress and Cancel, and shows
+measurement's and the duration input is disabled.  The replay runs as the session's
+``gearbox-runup`` job (:func:`app.work.runup.replay`, through the disk cache), with progress
+and Cancel, and shows
 
 * ``N(t)`` and ``L_AF(t)`` against the run's rpm, with the verdict's N5 over rpm when a verdict
   is shown;

@@ -417,6 +417,7 @@ def compare(run: GearboxRunup, verdict: Verdict, rundown: GearboxRunup | None = 
                       text="\n".join(lines), step=step)
 
 
-__all__ = ["GearboxRunup", "gearbox_runup", "measured_angle", "angle_of_samples", "rattle_intervals", "verdict_grid", "compare",
+__all__ = ["GearboxRunup", "gearbox_runup", "measured_angle", "angle_of_samples",
+           "rattle_intervals", "verdict_grid", "compare",
            "Comparison", "GAP_PERIODS", "GRID_STEP_RPM", "LOUDNESS_TOL_REL",
            "LOUDNESS_TOL_SONE", "INTERVAL_COLUMNS"]
