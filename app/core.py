@@ -63,6 +63,8 @@ from rattle_core.batch.runup import compare as compare_runup
 from rattle_core.model.params import canonical_hash
 from rattle_core.solver.runup import check_run
 from rattle_core.store.runups import cached_runup
+from rattle_core.batch.runup import angle_of_samples
+from rattle_core.solver.runup import measured_window
 
 #: Regime letter → meaning, for the letters a classification gives.
 REGIMES = {k: v for k, v in REGIME_MEANING.items() if k != "error"}
@@ -91,5 +93,6 @@ __all__ = [
     "orders_png", "verdict_png", "campbell", "campbell_png", "read_measurement", "SPEED_UNITS",
     "cached_verdict", "check_verdict_rpm",
     "Target", "designs_png", "verdict_tables", "csv_text", "REGIME_WORDS", "scaled_drag",
-    "compare_runup", "canonical_hash", "check_run", "cached_runup",
+    "compare_runup", "canonical_hash", "check_run", "cached_runup", "angle_of_samples",
+    "measured_window",
 ]

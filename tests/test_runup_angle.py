@@ -149,6 +149,17 @@ def test_run_outside_the_measured_speeds_is_refused_with_the_range():
     assert a == pytest.approx(2.8, abs=2 / FS) and b == pytest.approx(4.8, abs=2 / FS)
 
 
+def test_a_run_against_the_measurements_direction_is_refused_by_name():
+    """Bad input: a run-down asked of a measured run-up (both speeds inside its range, the
+    second never reached after the first) is refused with a ValueError naming rpm_to and the
+    measurement's direction, not an IndexError."""
+    t = np.arange(int(8 * FS)) / FS
+    fa = filter_angle(t, cutoff_hz=400.0, speed_rpm=1000.0 + 250.0 * t, engine_order=2.0)
+    with pytest.raises(ValueError, match=r"rpm_to = 1700\.0 is not reached after rpm_from = "
+                                         r"2200\.0 .* from 1600(\.0\d)? to 2399\.9\d rpm"):
+        measured_window(fa, 2200.0, 1700.0)
+
+
 def test_cli_runup_angle_wall_and_its_refusals(tmp_path, capsys):
     """`rattle runup --wall angle --cutoff-hz F` replays the measurement itself, each CSV row
     its impact; a cutoff above Nyquist exits 2 with one line naming cutoff_hz and the range,

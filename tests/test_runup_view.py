@@ -83,3 +83,67 @@ def test_bad_input_is_refused_with_the_range_and_cancel_drops_the_run(views):
     ru.cancel("Replay cancelled.")
     assert job.cancelled and ru.job is None and not ru.panel.progress.visible
     assert "Replay cancelled." in ru.panel.status.object and ru.revision == 0
+
+
+def test_the_measured_angle_drives_a_replay_of_the_measurements_own_stretch(views):
+    """With the measured angle chosen, the cutoff is shown and the duration disabled; the
+    replay of the sample measurement runs in the background from the samples the session
+    kept, and gives the same impacts and intervals as gearbox_runup driven by measured_angle()
+    read from the file itself (as the CLI's --wall angle does), over the stretch of the
+    measurement between the two speeds."""
+    from rattle_core.batch.runup import gearbox_runup, measured_angle
+    from rattle_core.measure.orders import SAMPLE_RUNUP
+    from rattle_core.solver.runup import measured_window
+    gb, ru = views
+    assert not ru.cutoff.visible and not ru.duration.disabled
+    ru.wall.value = "angle"
+    assert ru.cutoff.visible and ru.duration.disabled
+    assert "measurement's own" in ru.duration.label
+    ru.rpm_from.value, ru.rpm_to.value, ru.cutoff.value = 1900.0, 2150.0, 400.0
+    ru.duration.value = 0.0  # not used by the measured angle's run
+    assert ru.run(), ru.state.messages.get("gearbox-runup")
+    wait_for(lambda: ru.revision == 1 or "gearbox-runup" in ru.state.messages, 600, "the replay")
+    assert "gearbox-runup" not in ru.state.messages, ru.state.messages["gearbox-runup"]
+    box = gb.with_settings(gb.gearbox())
+    angle = measured_angle(SAMPLE_RUNUP, 400.0, box.excitation.engine_order)
+    a, b = measured_window(angle, 1900.0, 2150.0)
+    ref = gearbox_runup(box, 1900.0, 2150.0, None, angle=angle, sound=False)
+    assert ru.result["wall"] == "angle" and ru.result["cutoff_hz"] == 400.0
+    assert ru.result["duration_s"] == pytest.approx(b - a, rel=1e-12)
+    assert sum(ru.result["impacts_per_gear"].values()) == len(ref.impacts) > 0
+    pd.testing.assert_frame_equal(ru.intervals.reset_index(drop=True), ref.intervals,
+                                  check_dtype=False, rtol=1e-12)
+    np.testing.assert_allclose(ru.run_src.data["rpm"], angle.mean_rpm(a + ru.result["time_s"]),
+                               rtol=1e-12)
+    assert np.asarray(ru.audio.object).size == round((b - a) * 48_000)
+    assert "measured angle filtered at 400 Hz" in ru.panel.status.object
+
+
+def test_a_bad_cutoff_or_speed_for_the_measured_angle_is_refused_beside_the_card(views):
+    """Bad input with the measured angle: a cutoff above the sampling's Nyquist frequency, at
+    0 or NaN names cutoff_hz and its range (0, f_s/2); a speed the measured stretch never
+    reaches names the measured range; a run-down asked of the measured run-up is refused; and
+    none of them starts a job."""
+    from rattle_core.measure.sampling import regularise
+    gb, ru = views
+    t, w, _ = gb.measurement.samples
+    t, _, _, _ = regularise(t, w, str, None)
+    nyquist = 0.5 / float(np.median(np.diff(t)))
+    ru.wall.value = "angle"
+    ru.rpm_from.value, ru.rpm_to.value = 1900.0, 2150.0
+    for cutoff, said in ((5000.0, "cutoff_hz = 5000.0 is outside"), (0.0, "cutoff_hz = 0.0"),
+                         (float("nan"), "cutoff_hz must be finite")):
+        ru.cutoff.value = cutoff
+        assert not ru.run() and ru.job is None
+        msg = ru.state.messages["gearbox-runup"]
+        assert said in msg and f"(0, {nyquist:g})" in msg, msg
+    ru.cutoff.value, ru.rpm_to.value = 400.0, 3500.0
+    assert not ru.run() and ru.job is None
+    assert "rpm_to = 3500.0 is outside the measurement's speed range" in \
+        ru.state.messages["gearbox-runup"]
+    ru.rpm_to.value, ru.rundown.value = 2150.0, True
+    assert not ru.run() and ru.job is None
+    assert "the run-down: rpm_to = 1900.0 is not reached" in ru.state.messages["gearbox-runup"]
+    ru.rundown.value = False
+    assert ru.run() and "gearbox-runup" not in ru.state.messages
+    ru.cancel("Replay cancelled.")

@@ -14,7 +14,8 @@ view out.
   the analysed orders marked).
 
 The Gearbox view (:mod:`app.views.gearbox`) is given this view and composes it; the map it
-shows is :attr:`MeasurementView.order_map`, new ones announced by :attr:`revision`.
+shows is :attr:`MeasurementView.order_map`, new ones announced by :attr:`revision`; the
+time and speed it was analysed from are kept beside it (:attr:`MeasurementView.samples`).
 """
 from __future__ import annotations
 
@@ -61,6 +62,10 @@ class MeasurementView(pn.viewable.Viewer):
         #: the bytes last read (``None``: the sample) and their name, read again on a correction
         self.data: bytes | None = None
         self.file_name = ""
+        # the time [s] and speed [rpm] read, and the map they were analysed into: the run-up
+        # replay's measured angle is built from them (:attr:`samples`)
+        self._samples: tuple | None = None
+        self._samples_map: Any = None
         self.loaded = False
         self._quiet = False
         self.input = pn.widgets.FileInput(accept=".csv,.gz,.txt,.tsv", css_classes=["gb-measurement"],
@@ -165,6 +170,14 @@ class MeasurementView(pn.viewable.Viewer):
         if data is not None:
             self.measure(data)
 
+    @property
+    def samples(self) -> tuple | None:
+        """``(time_s, speed_rpm, source)`` of the measurement whose order map is shown, as read
+        with the corrections; None when the map shown came otherwise (constant orders, none)."""
+        if self._samples is None or self._samples_map is not self.order_map:
+            return None
+        return self._samples
+
     def options(self) -> dict:
         """The reading options the corrections ask for (none: what the file's layout says)."""
         out: dict[str, Any] = {}
@@ -227,6 +240,9 @@ class MeasurementView(pn.viewable.Viewer):
             return
         omap, self.identity, extra = out
         self.campbell = extra["campbell"]
+        t_w = extra.get("samples")
+        self._samples = None if t_w is None else (*t_w, self.file_name)
+        self._samples_map = omap
         det = omap.detected
         self._quiet = True
         try:

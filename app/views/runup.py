@@ -3,8 +3,12 @@
 Under the Gearbox tab.  It takes the gearbox and the measurement the tab describes (the same
 :meth:`~app.views.gearbox.GearboxView.gearbox` the verdict runs on, with the tab's oil
 temperature), a speed at the start and at the end (below the start: a run-down) and the run's
-length, all checked before anything runs.  The replay runs as the session's ``gearbox-runup``
-job (:func:`app.work.runup.replay`, through the disk cache), with progress and Cancel, and shows
+length, all checked before anything runs.  The driving tooth follows the order reconstruction,
+or the measured angle itself low-pass filtered at a cutoff (the CLI's ``--wall angle``): that
+run is the measurement's own stretch between the two speeds, so its length is the
+measurement's and the duration input is disabled.  The replay runs as the session's
+``gearbox-runup`` job (:func:`app.work.runup.replay`, through the disk cache), with progress
+and Cancel, and shows
 
 * ``N(t)`` and ``L_AF(t)`` against the run's rpm, with the verdict's N5 over rpm when a verdict
   is shown;
@@ -99,6 +103,15 @@ def _onsets_html(df: pd.DataFrame | None) -> str:
         index=False, escape=True, float_format="%.0f", na_rep="never")
 
 
+#: What drives the tooth: the order reconstruction, or the measured angle itself, filtered.
+WALLS = {"orders (reconstruction)": "orders", "measured angle, low-pass filtered": "angle"}
+DURATION_LABEL = (f"duration [s] ({work.DURATION_RANGE_S[0]:g}–"
+                  f"{work.DURATION_RANGE_S[1]:g})")
+#: The duration's label when the measured angle drives the run, which then lasts as long as
+#: the measurement takes between the two speeds.
+DURATION_ANGLE_LABEL = "duration [s]: the measurement's own"
+
+
 class RunupView(pn.viewable.Viewer):
     """"Replay the run-up" under the Gearbox tab (see the module docstring)."""
 
@@ -118,8 +131,14 @@ class RunupView(pn.viewable.Viewer):
         self.rpm_to = pn.widgets.FloatInput(label="rpm to", value=2500.0, step=50.0,
                                             css_classes=["gb-runup-to"], width=120)
         self.duration = pn.widgets.FloatInput(
-            label=f"duration [s] ({work.DURATION_RANGE_S[0]:g}–{work.DURATION_RANGE_S[1]:g})",
-            value=5.0, step=1.0, css_classes=["gb-runup-duration"], width=160)
+            label=DURATION_LABEL, value=5.0, step=1.0, css_classes=["gb-runup-duration"],
+            width=160)
+        self.wall = pn.widgets.Select(label="driving tooth from", options=WALLS, value="orders",
+                                      css_classes=["gb-runup-wall"], width=280)
+        self.cutoff = pn.widgets.FloatInput(label="cutoff [Hz]", value=500.0, step=50.0,
+                                            css_classes=["gb-runup-cutoff"], width=120,
+                                            visible=False)
+        self.wall.param.watch(lambda e: self._on_wall(), "value")
         self.rundown = pn.widgets.Checkbox(label="also the run-down (hysteresis)", value=False,
                                            css_classes=["gb-runup-rundown"])
         self.run_button = pn.widgets.Button(label="Replay the run-up", color="primary",
@@ -209,39 +228,65 @@ class RunupView(pn.viewable.Viewer):
 
     # ----- the request ------------------------------------------------------------------------
 
+    def _on_wall(self) -> None:
+        angle = self.wall.value == "angle"
+        self.cutoff.visible = angle
+        # the measured angle's run is the measurement's own stretch between the two speeds
+        self.duration.param.update(disabled=angle,
+                                   label=DURATION_ANGLE_LABEL if angle else DURATION_LABEL)
+
     def request(self) -> tuple:
-        """The gearbox and the run asked for; ``ValueError`` naming the input and its range."""
+        """The gearbox and the run asked for: ``(box, rpm_from, rpm_to, duration, samples,
+        cutoff_hz)``, ``duration`` None and ``samples`` the measurement's time and speed when
+        the measured angle drives the run (else ``samples`` and ``cutoff_hz`` None);
+        ``ValueError`` naming the input and its range."""
         tab = self.gearbox
         try:
             box = tab.with_settings(tab.gearbox())
         except ValueError as exc:
             raise ValueError(f"gears: {exc}") from None
+        angle = self.wall.value == "angle"
+        inputs = [(self.rpm_from, "rpm from"), (self.rpm_to, "rpm to")]
+        if not angle:
+            inputs.append((self.duration, "duration"))
         values = []
-        for w, label in ((self.rpm_from, "rpm from"), (self.rpm_to, "rpm to"),
-                         (self.duration, "duration")):
+        for w, label in inputs:
             v = w.value
             if v is None or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise ValueError(f"{label} = {v!r} must be a number")
             values.append(float(v))
-        rpm_from, rpm_to, duration = values
-        work.check(box, rpm_from, rpm_to, duration)
-        return box, rpm_from, rpm_to, duration
+        if not angle:
+            rpm_from, rpm_to, duration = values
+            work.check(box, rpm_from, rpm_to, duration)
+            return box, rpm_from, rpm_to, duration, None, None
+        rpm_from, rpm_to = values
+        samples = getattr(tab.measurement, "samples", None)
+        if samples is None:
+            raise ValueError("the measured angle needs the measured time and speed: take the "
+                             "sample run-up or upload a measurement (a gearbox file's constant "
+                             "orders have no angle)")
+        cutoff = self.cutoff.value
+        work.check(box, rpm_from, rpm_to, None, samples, cutoff, bool(self.rundown.value))
+        return box, rpm_from, rpm_to, None, samples, float(cutoff)
 
     def run(self) -> bool:
         """Start the replay in the background; False with a message (plain text) if it cannot."""
         st = self.state
         st.clear("gearbox-runup")
         try:
-            box, a, b, d = self.request()
-        except ValueError as exc:
+            box, a, b, d, samples, cutoff = self.request()
+        except (ValueError, TypeError) as exc:
             st.say("gearbox-runup", str(exc))
             return False
         self._box = box
         base = getattr(self.gearbox, "base", None)
         what = "run-down" if b < a else "run-up"
+        how = (f"in {d:g} s" if samples is None else
+               f"over the measurement's own stretch, its angle filtered at {cutoff:g} Hz")
         self.panel.submit(
-            object(), work.replay, (box, a, b, d, bool(self.rundown.value), base),
-            f"Replaying the {what} {a:g} → {b:g} rpm in {d:g} s, {len(box.gears)} gears"
+            object(), work.replay,
+            (box, a, b, d, bool(self.rundown.value), base, samples, cutoff),
+            f"Replaying the {what} {a:g} → {b:g} rpm {how}, {len(box.gears)} gears"
             f"{' and the run-down' if self.rundown.value else ''}…", work.RUNUP_JOB_LIMIT,
             on_done=self._done, on_error=self._error)
         return True
@@ -270,8 +315,10 @@ class RunupView(pn.viewable.Viewer):
         self.audio.param.update(object=out["signal"], sample_rate=int(out["rate"]))
         how = "from the disk cache" if out["from_cache"] else "computed"
         n = sum(out["impacts_per_gear"].values())
+        wall = ("" if out.get("wall", "orders") == "orders" else
+                f", driven by the measured angle filtered at {out['cutoff_hz']:g} Hz")
         self.panel.say(f"Run {out['rpm_from']:g} → {out['rpm_to']:g} rpm in "
-                       f"{out['duration_s']:g} s ({how}): {n} impacts; the sound is played "
+                       f"{out['duration_s']:.4g} s{wall} ({how}): {n} impacts; the sound is played "
                        f"normalised (full scale {out['calibration_pa']:.3g} Pa).")
         self.revision += 1
 
@@ -281,7 +328,8 @@ class RunupView(pn.viewable.Viewer):
         controls = pn.Column(
             pn.pane.Markdown("**5. Replay the run-up** (the gears driven through the measured "
                              "run itself; rpm to below rpm from: a run-down)"),
-            pn.Row(self.rpm_from, self.rpm_to, self.duration), self.rundown,
+            pn.Row(self.wall, self.cutoff), pn.Row(self.rpm_from, self.rpm_to, self.duration),
+            self.rundown,
             pn.Row(self.run_button, self.panel.cancel_button, sizing_mode="stretch_width"),
             message(self.state, "gearbox-runup"), self.panel.progress, self.panel.status,
             self.audio, width=460, margin=(0, 10))

@@ -50,15 +50,18 @@ def measurement(data: bytes | None, orders: tuple, rpm_step: float, name: str | 
     :meth:`rattle_core.measure.orders.OrderMap.from_csv` (columns, speed unit, pulses, a time
     window).  With ``name`` (the file's name, shown only escaped), the triple ``(map,
     {"file", "sha256", "bytes"}, extra)``: ``extra`` holds the Campbell data (``campbell``,
-    None where the file is too short for one, ``campbell_note`` then says why) and the file's
-    time ``span`` [s] as read."""
+    None where the file is too short for one, ``campbell_note`` then says why), the file's
+    time ``span`` [s] as read, and its ``samples``: the time [s] and speed [rpm] arrays read (the
+    run-up replay's measured angle is built from them)."""
     if name is not None:
         meas = _measurement(data, orders, rpm_step, options or {})
         if meas is None:
             return None
         omap, raw = meas
         extra = {"campbell": None, "campbell_note": "",
-                 "span": (float(raw.time_s[0]), float(raw.time_s[-1])) if raw.time_s.size else None}
+                 "span": (float(raw.time_s[0]), float(raw.time_s[-1])) if raw.time_s.size else None,
+                 "samples": (np.asarray(raw.time_s, dtype=np.float64),
+                             np.asarray(raw.speed_rpm, dtype=np.float64))}
         from ..core import campbell
         try:
             extra["campbell"] = campbell(raw, omap.orders, omap.rpm_step)

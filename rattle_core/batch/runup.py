@@ -286,20 +286,29 @@ def gearbox_runup(gearbox: Gearbox, rpm_from: float, rpm_to: float, duration_s: 
 def measured_angle(path, cutoff_hz: float, engine_order: float = 2.0, **options: Any
                    ) -> FilteredAngle:
     """The shaft angle of a measurement file (:func:`~rattle_core.measure.measurement.
-    read_measurement` with its reading ``options``, put on a uniform grid as the order analysis
-    puts it), split into its mean rotation and its fluctuation low-pass filtered at
-    ``cutoff_hz`` (:func:`~rattle_core.solver.angle_wall.filter_angle`)."""
+    read_measurement` with its reading ``options``), by :func:`angle_of_samples`."""
     from ..measure.measurement import read_measurement
-    from ..measure.sampling import regularise
     meas = read_measurement(path, **options)
-    t, w, _, _ = regularise(meas.time_s, meas.speed_rpm, lambda i: f"sample {i}", None)
+    return angle_of_samples(meas.time_s, meas.speed_rpm, cutoff_hz, engine_order,
+                            meas.detected.source)
+
+
+def angle_of_samples(time_s, speed_rpm, cutoff_hz: float, engine_order: float = 2.0,
+                     source: str = "the measurement") -> FilteredAngle:
+    """A measured shaft speed [rpm] at ``time_s`` [s], put on a uniform grid as the order
+    analysis puts it, split into its mean rotation and its fluctuation low-pass filtered at
+    ``cutoff_hz`` (:func:`~rattle_core.solver.angle_wall.filter_angle`); messages name
+    ``source`` and its sampling rate."""
+    from ..measure.sampling import regularise
+    t, w, _, _ = regularise(np.asarray(time_s, dtype=np.float64),
+                            np.asarray(speed_rpm, dtype=np.float64), lambda i: f"sample {i}", None)
     if t.size < 2:
-        raise ValueError(f"{meas.detected.source}: too few samples for a measured angle")
+        raise ValueError(f"{source}: too few samples for a measured angle")
     rate = 1.0 / float(np.median(np.diff(t)))
     try:
         return filter_angle(t, cutoff_hz=cutoff_hz, speed_rpm=w, engine_order=engine_order)
     except ValueError as exc:
-        raise ValueError(f"{meas.detected.source} (sampled at {rate:.6g} Hz): {exc}") from None
+        raise ValueError(f"{source} (sampled at {rate:.6g} Hz): {exc}") from None
 
 
 def verdict_grid(rpm_from: float, rpm_to: float, step: float = GRID_STEP_RPM) -> np.ndarray:
@@ -408,6 +417,7 @@ def compare(run: GearboxRunup, verdict: Verdict, rundown: GearboxRunup | None = 
                       text="\n".join(lines), step=step)
 
 
-__all__ = ["GearboxRunup", "gearbox_runup", "rattle_intervals", "verdict_grid", "compare",
+__all__ = ["GearboxRunup", "gearbox_runup", "measured_angle", "angle_of_samples",
+           "rattle_intervals", "verdict_grid", "compare",
            "Comparison", "GAP_PERIODS", "GRID_STEP_RPM", "LOUDNESS_TOL_REL",
            "LOUDNESS_TOL_SONE", "INTERVAL_COLUMNS"]

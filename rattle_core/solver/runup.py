@@ -330,14 +330,21 @@ def measured_window(angle: FilteredAngle, rpm_from: float, rpm_to: float) -> tup
             raise ValueError(f"{name} = {value!r} is outside the measurement's speed range "
                              f"[{lo:g}, {hi:g}] rpm (its mean speed, clear of the filters' edges)")
 
-    def first(after: int, target: float) -> int:
+    def first(after: int, target: float) -> int | None:
         rel = rpm[after:] - target
         sign0 = np.sign(rel[0])
+        if sign0 == 0.0:
+            return after
         hit = np.nonzero((rel == 0.0) | (np.sign(rel) != sign0))[0]
-        return after + int(hit[0]) if sign0 != 0.0 else after
+        return after + int(hit[0]) if hit.size else None
 
     a = first(0, float(rpm_from))
     b = first(a, float(rpm_to))
+    if b is None:
+        # a run-down asked of a run-up (or the reverse): the second speed comes before the first
+        raise ValueError(f"rpm_to = {rpm_to!r} is not reached after rpm_from = {rpm_from!r} on "
+                         f"the measurement, whose mean speed runs from {rpm[0]:g} to "
+                         f"{rpm[-1]:g} rpm; a run follows the measurement's own direction")
     if b <= a:
         raise ValueError(f"rpm_from = {rpm_from!r} and rpm_to = {rpm_to!r} are met at the same "
                          "sample of the measurement; a run needs two different speeds it passes "
