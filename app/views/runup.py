@@ -43,7 +43,9 @@ from ..work import runup as work
 AUDIO_CSS = "gb-runup-audio"
 
 #: Moves the loudness plot's cursor (``cursor``) with the run's player: ``meta`` holds the run's
-#: ``rpm_from``, ``rpm_to`` and ``duration``.  The player is found in the page's shadow roots
+#: ``rpm_from``, ``rpm_to`` and ``duration``, ``run`` its speed ``rpm`` at the times ``t`` (the
+#: cursor is at the run's speed at the player's time, which for a measured angle is the
+#: measurement's own, not a straight ramp).  The player is found in the page's shadow roots
 #: and listened to once; while it plays, a ``requestAnimationFrame`` loop places the cursor
 #: from its ``currentTime``; the cursor is set with ``sync: false``, so nothing is sent.
 CURSOR_JS = r"""
@@ -65,11 +67,20 @@ function audio_el() {
   return walk(document);
 }
 function place(a) {
-  const M = meta.data;
+  const M = meta.data, t = run.data.t, rpm = run.data.rpm;
   if (!M.duration || M.duration.length == 0 || !(M.duration[0] > 0)) return;
-  const f = Math.min(1, Math.max(0, a.currentTime / M.duration[0]));
-  cursor.setv({location: M.rpm_from[0] + (M.rpm_to[0] - M.rpm_from[0]) * f, visible: true},
-              {sync: false});
+  let x = M.rpm_from[0] + (M.rpm_to[0] - M.rpm_from[0]) * Math.min(1, Math.max(0, a.currentTime / M.duration[0]));
+  if (t && t.length > 1 && t.length == rpm.length) {  // the run's own speed at the player's time
+    const tau = t[0] + a.currentTime;
+    let lo = 0, hi = t.length - 1;
+    if (tau <= t[0]) x = rpm[0];
+    else if (tau >= t[hi]) x = rpm[hi];
+    else {
+      while (hi - lo > 1) { const mid = (lo + hi) >> 1; if (t[mid] <= tau) lo = mid; else hi = mid; }
+      x = rpm[lo] + (rpm[hi] - rpm[lo]) * (tau - t[lo]) / (t[hi] - t[lo]);
+    }
+  }
+  if (Number.isFinite(x)) cursor.setv({location: x, visible: true}, {sync: false});
 }
 function loop() {
   const a = S.audio;
@@ -161,7 +172,7 @@ class RunupView(pn.viewable.Viewer):
     # ----- plots ------------------------------------------------------------------------------
 
     def _build_plots(self) -> None:
-        self.run_src = ColumnDataSource({"rpm": [], "sone": [], "dba": []})
+        self.run_src = ColumnDataSource({"t": [], "rpm": [], "sone": [], "dba": []})
         self.verdict_src = ColumnDataSource({"rpm": [], "sone": []})
         self.meta_src = ColumnDataSource({"rpm_from": [], "rpm_to": [], "duration": []})
         self.intervals_src = ColumnDataSource({"gear": [], "start_rpm": [], "end_rpm": []})
@@ -182,7 +193,8 @@ class RunupView(pn.viewable.Viewer):
                            visible=False, name="runup_cursor")
         f.add_layout(self.cursor)
         self.loudness_fig = f
-        cb = CustomJS(args={"meta": self.meta_src, "cursor": self.cursor, "css": AUDIO_CSS},
+        cb = CustomJS(args={"meta": self.meta_src, "run": self.run_src, "cursor": self.cursor,
+                            "css": AUDIO_CSS},
                       code=CURSOR_JS)
         self.meta_src.js_on_change("data", cb)
         f.js_on_event("document_ready", cb)
@@ -197,7 +209,8 @@ class RunupView(pn.viewable.Viewer):
 
     def _draw(self) -> None:
         r = self.result
-        self.run_src.data = {"rpm": np.asarray(r["rpm_t"]), "sone": np.asarray(r["loudness_t"]),
+        self.run_src.data = {"t": np.asarray(r["time_s"], dtype=float),
+                             "rpm": np.asarray(r["rpm_t"]), "sone": np.asarray(r["loudness_t"]),
                              "dba": np.asarray(r["level_dba_t"])}
         dba = np.asarray(r["level_dba_t"])
         dba = dba[np.isfinite(dba)]
