@@ -32,26 +32,12 @@ from rattle_core.store.files import atomic_savez, content_digest, read_checked
 from rattle_core.store.files import signing as sign_with
 from rattle_core.store.verdicts import save_verdict
 from rattle_core.store.verdicts import cached_verdict
+from gearboxes import SAMPLE_ONE_GEAR
 
 P = RattleParams(lam=3.3, amplitudes=(1.0, 0.25), phases_deg=(0.0, 45.0))
 KEY_OURS, KEY_THEIRS = "a1" * 32, "5e" * 32
 
-TOML = """
-[excitation]
-measurement = "sample"
-engine_order = 2
-harmonics = 3
-
-[sound]
-duration_s = 0.2
-
-[[gear]]
-name = "5th idler"
-inertia_kgm2 = 4e-4
-base_radius_m = 0.035
-drag_torque_Nm = 0.05
-backlash_um = 80
-"""
+TOML = SAMPLE_ONE_GEAR
 BOX = Gearbox.from_text(TOML)
 BOX_DRAG = BOX.replace(gears=(BOX.gears[0].replace(drag_torque_Nm=0.08),))
 BOX_RENAMED = BOX.replace(gears=(BOX.gears[0].replace(name="6th idler"),))

@@ -11,7 +11,7 @@ import pytest
 from rattle_cli.commands.gearbox import GRID_STEPS, round_grid
 from rattle_cli.main import main
 from rattle_core.model.gearbox import Gearbox
-from gearboxes import SAMPLE_TWO_GEARS
+from gearboxes import OIL_ONE_GEAR as OIL, SAMPLE_TWO_GEARS
 
 pytestmark = pytest.mark.timeout(600)
 
@@ -86,27 +86,6 @@ def test_bad_options_exit_2_with_one_line(files, capsys, extra, words):
     assert not (files / "v.csv").exists()
 
 
-OIL = """
-[excitation]
-orders = [{order = 2, amplitude_rad = 1e-3}]
-engine_order = 2
-harmonics = 1
-
-[sound]
-duration_s = 0.2
-
-[oil]
-iso_vg = 68
-nu100_cSt = 9
-temp_C = 40
-
-[[gear]]
-name = "idler"
-inertia_kgm2 = 4e-4
-base_radius_m = 0.035
-backlash_um = 80
-drag = {bush_Nm = 0.01, churn_Nm = 0.02, at_rpm = 2000, at_temp_C = 40}
-"""
 
 
 def _onset_closed_form(temp_C: float) -> float:

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from conftest import wait_for
+from gearboxes import OIL_ONE_GEAR
 
 from app.work import gearbox as work
 
@@ -136,31 +137,9 @@ def test_target_text_and_oil_temperature_are_checked(view):
     assert view.table_b.value.equals(view.table.value)
 
 
-OIL_BOX = b"""
-[excitation]
-orders = [{order = 2, amplitude_rad = 1e-3}]
-engine_order = 2
-harmonics = 1
-
-[sound]
-duration_s = 0.2
-
-[oil]
-iso_vg = 68
-nu100_cSt = 9
-temp_C = 40
-
-[target]
-rpm = [1000, 3000]
-sone = [0.1, 0.3]
-
-[[gear]]
-name = "idler"
-inertia_kgm2 = 4e-4
-base_radius_m = 0.035
-backlash_um = 80
-drag = {bush_Nm = 0.01, churn_Nm = 0.02, at_rpm = 2000, at_temp_C = 40}
-"""
+#: The oil gearbox of the tests with a target of its own.
+OIL_BOX = OIL_ONE_GEAR.replace(
+    "[[gear]]", "[target]\nrpm = [1000, 3000]\nsone = [0.1, 0.3]\n\n[[gear]]").encode()
 
 
 def test_drag_what_if_scales_an_oil_drag_and_the_file_target_is_shown(view):

@@ -16,7 +16,7 @@ from rattle_core.model.gearbox import Gearbox
 from rattle_core.measure.orders import SAMPLE_RUNUP, OrderMap
 from rattle_core.model.target import Target
 from rattle_core.store.verdicts import load_verdict, save_verdict
-from gearboxes import SAMPLE_TWO_GEARS_DRIVEN
+from gearboxes import OIL_ONE_GEAR as OIL, SAMPLE_TWO_GEARS_DRIVEN
 
 TWO_GEARS = SAMPLE_TWO_GEARS_DRIVEN
 
@@ -169,27 +169,6 @@ def test_a_gear_that_rattles_falls_quiet_and_rattles_again_has_two_ranges():
     np.testing.assert_allclose(rows["drag_to_quiet_Nm"], 4e-4 * 200.0, rtol=1e-6)
 
 
-OIL = """
-[excitation]
-orders = [{order = 2, amplitude_rad = 1e-3}]
-engine_order = 2
-harmonics = 1
-
-[sound]
-duration_s = 0.2
-
-[oil]
-iso_vg = 68
-nu100_cSt = 9
-temp_C = 40
-
-[[gear]]
-name = "idler"
-inertia_kgm2 = 4e-4
-base_radius_m = 0.035
-backlash_um = 80
-drag = {bush_Nm = 0.01, churn_Nm = 0.02, at_rpm = 2000, at_temp_C = 40}
-"""
 
 
 def _walther(temp_C: float) -> float:

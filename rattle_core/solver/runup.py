@@ -85,8 +85,26 @@ class RunupWall:
         return self.mass * self.omega_ref * self.H_ref
 
 
+class ImpactRows:
+    """A gear's impacts over a run (``gear``, ``impact_t``, ``impact_rpm``, ``impact_flank``,
+    ``impact_impulse``), read as its onset and as a table: a replay's and a stored replay's."""
+
+    @property
+    def onset_rpm(self) -> float:
+        """Speed of the first impact [rpm] (NaN when the gear never leaves the tooth)."""
+        return float(self.impact_rpm[0]) if self.impact_rpm.size else math.nan
+
+    def to_frame(self):
+        """One row per impact: ``t_s, rpm, gear, flank, impulse_Ns`` (a DataFrame)."""
+        import pandas as pd
+        return pd.DataFrame({"t_s": self.impact_t, "rpm": self.impact_rpm,
+                             "gear": np.full(self.impact_t.size, self.gear, dtype=object),
+                             "flank": np.where(self.impact_flank > 0, "active", "reverse"),
+                             "impulse_Ns": self.impact_impulse})
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
-class RunupReplay:
+class RunupReplay(ImpactRows):
     """One gear over a run-up: every impact, and the gear's state at the end.
 
     Attributes
@@ -122,18 +140,6 @@ class RunupReplay:
     def gear(self) -> str:
         return self.runup.gear
 
-    @property
-    def onset_rpm(self) -> float:
-        """Speed of the first impact [rpm] (NaN when the gear never leaves the tooth)."""
-        return float(self.impact_rpm[0]) if self.impact_rpm.size else math.nan
-
-    def to_frame(self):
-        """One row per impact: ``t_s, rpm, gear, flank, impulse_Ns`` (a DataFrame)."""
-        import pandas as pd
-        return pd.DataFrame({"t_s": self.impact_t, "rpm": self.impact_rpm,
-                             "gear": np.full(self.impact_t.size, self.gear, dtype=object),
-                             "flank": np.where(self.impact_flank > 0, "active", "reverse"),
-                             "impulse_Ns": self.impact_impulse})
 
 
 def _gear_index(gearbox: Gearbox, gear: int | str) -> int:

@@ -23,7 +23,7 @@ import numpy as np
 from ..batch.runup import GearboxRunup, gearbox_runup
 from ..model.gearbox import Gearbox
 from ..solver.angle_wall import FilteredAngle
-from ..solver.runup import check_run, measured_window
+from ..solver.runup import ImpactRows, check_run, measured_window
 from ..solver.trajectory import SOLVER_VERSION
 from .cache import cached
 from .files import atomic_savez
@@ -35,7 +35,7 @@ _IMPACT = ("t", "rpm", "flank", "impulse")
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class StoredReplay:
+class StoredReplay(ImpactRows):
     """One gear's impacts over a stored run (as :class:`~rattle_core.solver.runup.RunupReplay`)."""
 
     gear: str
@@ -43,19 +43,6 @@ class StoredReplay:
     impact_rpm: np.ndarray
     impact_flank: np.ndarray
     impact_impulse: np.ndarray
-
-    @property
-    def onset_rpm(self) -> float:
-        """Speed of the first impact [rpm] (NaN when the gear never leaves the tooth)."""
-        return float(self.impact_rpm[0]) if self.impact_rpm.size else math.nan
-
-    def to_frame(self):
-        """One row per impact: ``t_s, rpm, gear, flank, impulse_Ns`` (a DataFrame)."""
-        import pandas as pd
-        return pd.DataFrame({"t_s": self.impact_t, "rpm": self.impact_rpm,
-                             "gear": np.full(self.impact_t.size, self.gear, dtype=object),
-                             "flank": np.where(self.impact_flank > 0, "active", "reverse"),
-                             "impulse_Ns": self.impact_impulse})
 
 
 @dataclasses.dataclass(frozen=True)
