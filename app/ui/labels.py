@@ -267,6 +267,24 @@ REGIME_SHORT = {"A": "permanent contact", "B": "impacts, then contact", "C": "on
                 "error": "solver limit"}
 
 
+def map_colours(field: str, z: np.ndarray) -> dict[str, Any]:
+    """The colour scale of a map of ``field`` with values ``z``: the regime colours, a palette
+    of attractors, a log scale for the rattle intensity, a linear one for the rest."""
+    if field == "regime":
+        return {"cmap": [REGIME_COLOR[k] for k in REGIME_CODES], "colorbar": False, "logz": False,
+                "clim": (-0.5, len(REGIME_CODES) - 0.5)}
+    if field == "attractor":
+        from bokeh.palettes import Category20
+        return {"cmap": list(Category20[20]), "clim": (-0.5, 19.5), "colorbar": False, "logz": False}
+    finite = z[np.isfinite(z)]
+    lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
+    if field == "intensity":
+        return {"cmap": "magma", "logz": True, "colorbar": True,
+                "clim": (max(lo, 1e-4 * hi), max(hi, lo * (1 + 1e-9)))}
+    return {"cmap": "viridis", "logz": False, "colorbar": True,
+            "clim": (lo, hi if hi > lo else lo + 1.0)}
+
+
 def map_key(r: Any, field: str) -> list[tuple[str, str]]:
     """The colour key drawn inside a map's figure: ``(label, colour)`` of each regime (or
     attractor) present; none for a field with a colour bar."""

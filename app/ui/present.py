@@ -79,6 +79,14 @@ def figure_fonts(fig: Any, present: bool, title: str = "10pt") -> None:
             legend.label_text_font_size = f["legend"]
 
 
+def stretch(fig: Any, present: bool) -> None:
+    """A Bokeh figure stretches both ways while presented, across the page otherwise (set only
+    when it changes, so a redraw sends nothing new)."""
+    mode = "stretch_both" if present else "stretch_width"
+    if fig.sizing_mode != mode:
+        fig.sizing_mode = mode
+
+
 def presents(state: Any, view: str) -> bool:
     """Whether ``view`` (a name in :data:`STAGES`) is on the screen in presentation mode."""
     return bool(state.present) and view in STAGES.get(state.stage, ())

@@ -126,16 +126,15 @@ def joined(segments: list[np.ndarray]) -> np.ndarray:
     return np.concatenate([part for seg in segments for part in (seg, gap)][:-1])
 
 
-def branch_overlay(branch: Branch | None, name: str,
-                   limits: tuple[tuple[float, float], tuple[float, float]] | None = None,
+def branch_overlay(branch: Branch | None, name: str, limits: Any = None,
                    large: bool = False) -> hv.Overlay:
     """The branches on the diagram: stable solid, unstable dashed, one colour and one legend
     entry per branch, bifurcations marked and labelled (empty, unlabelled elements where there
     is no branch for diagram ``name``).
 
-    Each bifurcation is labelled once, inside ``limits`` (the view's ranges): near the right
-    edge to its left, and close neighbours a row apart, so labels neither clip nor overlap.
-    ``large`` labels are for a presented diagram, whose figure is larger in proportion.
+    Each bifurcation is labelled once, inside ``limits`` (the view's ``((x0, x1), (y0, y1))``):
+    near the right edge to its left, and close neighbours a row apart, so labels neither clip
+    nor overlap (``large`` ones for a presented diagram, whose figure is larger in proportion).
     """
     kdims = [hv.Dimension("x"), hv.Dimension("y")]
     ok = branch is not None and branch.name == name

@@ -40,7 +40,7 @@ from ..ui.plots import (TOOLS, HoloViewsPane, PinMarkers, Zoom, caption, file_st
                         save_as, weak_hook)
 from ..state import ExplorerState
 from ..work.threads import later
-from ..ui.present import figure_fonts, presents
+from ..ui.present import figure_fonts, presents, stretch
 from ..ui.widgets import Choice, deferred, message, set_value
 from .present import present_button
 
@@ -307,11 +307,8 @@ class DiagramView(pn.viewable.Viewer):
         self.pins.attach(plot.state, self._pinned_at(), self._marker_at())
         if plot.state.title.text != self._title:
             plot.state.title.text = self._title
-        present = presents(self.state, "diagram")
-        figure_fonts(plot.state, present, title="9pt")
-        mode = "stretch_both" if present else "stretch_width"
-        if plot.state.sizing_mode != mode:
-            plot.state.sizing_mode = mode
+        figure_fonts(plot.state, presents(self.state, "diagram"), title="9pt")
+        stretch(plot.state, presents(self.state, "diagram"))
         for tool in plot.state.toolbar.tools:
             if isinstance(tool, WheelZoomTool) and tool.dimensions != "width":
                 tool.dimensions = "width"  # the swept axis only: a zoom in impulse soon shows nothing

@@ -26,7 +26,7 @@ from ..core import batch_means, excitation
 from ..ui.help import HELP, tooltip
 from ..ui.labels import (MARK_COLOR, PIN_COLOR, badge_html, metrics_rows, regime_legend_html, table_html,
                          what_you_see)
-from ..ui.present import PANE_CSS, figure_fonts, mark, presents
+from ..ui.present import PANE_CSS, figure_fonts, mark, presents, stretch
 from ..ui.plots import (TOOLS, HoloViewsPane, Zoom, caption, file_stem, padded, save_as,
                     section_points, weak_hook)
 from ..state import ExplorerState
@@ -189,11 +189,8 @@ class SectionView(pn.viewable.Viewer):
                 fig.y_range.update(start=y0, end=y1, reset_start=y0, reset_end=y1)
         if plot.state.title.text != self._title:
             plot.state.title.text = self._title
-        present = presents(self.state, "section")
-        figure_fonts(plot.state, present, title="9pt")
-        mode = "stretch_both" if present else "stretch_width"
-        if plot.state.sizing_mode != mode:
-            plot.state.sizing_mode = mode
+        figure_fonts(plot.state, presents(self.state, "section"), title="9pt")
+        stretch(plot.state, presents(self.state, "section"))
         save_as(lambda: self._stem)(plot, element)
 
     @staticmethod

@@ -30,15 +30,15 @@ import panel as pn
 import param
 
 from ..work import tasks
-from ..core import REGIME_CODES, excitation, paper_phi2_to_core, plan_map
+from ..core import excitation, paper_phi2_to_core, plan_map
 from ..state import ExplorerState, MapSettings
-from ..work.map_plan import (AXES, FIELDS, MAX_POINTS, MAX_WORK, PHYSICAL, RANGES, axis_label,
+from ..work.map_plan import (AXES, FIELDS, PHYSICAL, RANGES, axis_label, grid_refusal,
                              request_key, scheduler)
 from ..work.threads import HV_LOCK, later
 from ..ui.job_panel import JobPanel
-from ..ui.labels import REGIME_COLOR, map_key, map_legend, text_html
+from ..ui.labels import map_colours, map_key, map_legend, text_html
 from ..ui.plots import TOOLS, HoloViewsPane, caption, file_stem, key_legend, save_as
-from ..ui.present import figure_fonts, presents
+from ..ui.present import figure_fonts, presents, stretch
 from ..ui.widgets import Choice, Field, message
 from .present import present_button
 
@@ -123,24 +123,21 @@ class MapsView(pn.viewable.Viewer):
             message(self.state, "map-run"), self.progress, self.status,
             pn.pane.HTML(text_html(where, "font-size:12px;color:#555"), css_classes=["map-where"]),
             self.download, self.legend, width=440, margin=(0, 10))
-        self.controls = controls
-        self.map_column = pn.Column(pn.Row(self._field, self.present_button), self.pane,
-                                    sizing_mode="stretch_width", min_width=MAP_MIN_WIDTH)
-        self.layout = pn.FlexBox(controls, self.map_column, flex_wrap="wrap",
-                                 sizing_mode="stretch_width")
+        self.controls, self.map_column = controls, pn.Column(
+            pn.Row(self._field, self.present_button), self.pane, sizing_mode="stretch_width",
+            min_width=MAP_MIN_WIDTH)
+        self.layout = pn.FlexBox(controls, self.map_column, flex_wrap="wrap", sizing_mode="stretch_width")
         self._present()
         return self.layout
 
     def _present(self, *_: Any) -> None:
-        """Presented, the map takes the whole window below the header (its controls are
-        hidden: the lecture shows a map computed before), with larger fonts."""
+        """Presented, the map alone takes the window below the header, with larger fonts."""
         if getattr(self, "layout", None) is None:
             return
         on = presents(self.state, "maps")
         self.controls.visible = not on
-        mode = "stretch_both" if on else "stretch_width"
         for part in (self.layout, self.map_column, self.pane):
-            part.sizing_mode = mode
+            part.sizing_mode = "stretch_both" if on else "stretch_width"
         self.revision += 1  # the hook sets the figure's fonts and sizing
 
     # ----- axes -------------------------------------------------------------------------------
@@ -204,14 +201,9 @@ class MapsView(pn.viewable.Viewer):
             # grid values people read (and a click puts in the URL): 12 significant digits
             axes[a] = np.array([float(f"{v:.12g}") for v in np.linspace(lo, hi, n)])
         xv, yv = axes["x"], axes["y"]
-        points, work_ = xv.size * yv.size, xv.size * yv.size * (m.transient + m.record)
-        if points > MAX_POINTS:
-            s.say("map-run", f"the grid has {xv.size} × {yv.size} = {points} points; the allowed "
-                             f"range is up to {MAX_POINTS:,} points.")
-            return None
-        if work_ > MAX_WORK:
-            s.say("map-run", f"points × (transient + recorded periods) = {work_:.3g}; the allowed "
-                             f"range is up to {MAX_WORK:.0e} (fewer points or periods).")
+        refusal = grid_refusal(xv.size, yv.size, m.transient + m.record)
+        if refusal:
+            s.say("map-run", refusal)
             return None
         run = s.result
         core = {a: (paper_phi2_to_core(v) if name == "phi2" and s.phases == "paper" else v)
@@ -318,11 +310,8 @@ class MapsView(pn.viewable.Viewer):
             me = ref()
             if me is not None and me._generation == generation:
                 plot.state.name = "map_figure"
-                present = presents(me.state, "maps")
-                figure_fonts(plot.state, present, title="9pt")
-                mode = "stretch_both" if present else "stretch_width"
-                if plot.state.sizing_mode != mode:
-                    plot.state.sizing_mode = mode
+                figure_fonts(plot.state, presents(me.state, "maps"), title="9pt")
+                stretch(plot.state, presents(me.state, "maps"))
                 me._figure = weakref.ref(plot.state)
                 save_as(lambda: me._stem)(plot, element)
                 key_legend(plot.state, map_key(me.result, me.settings.field))
@@ -361,21 +350,7 @@ class MapsView(pn.viewable.Viewer):
         title = f"{FIELDS.get(field, 'attractor reached')} · {caption(run)}"
         opts = {"clipping_colors": {"NaN": (0, 0, 0, 0)}, "tools": [*TOOLS, "tap", "hover"],
                 "framewise": True, "title": title}
-        if field == "regime":
-            opts.update(cmap=[REGIME_COLOR[k] for k in REGIME_CODES], clim=(-0.5, len(REGIME_CODES) - 0.5),
-                        colorbar=False, logz=False)
-        elif field == "attractor":
-            from bokeh.palettes import Category20
-            opts.update(cmap=list(Category20[20]), clim=(-0.5, 19.5), colorbar=False, logz=False)
-        else:
-            finite = z[np.isfinite(z)]
-            lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
-            if field == "intensity":
-                opts.update(cmap="magma", logz=True, clim=(max(lo, 1e-4 * hi), max(hi, lo * (1 + 1e-9))))
-            else:
-                opts.update(cmap="viridis", logz=False, clim=(lo, hi if hi > lo else lo + 1.0))
-            opts["colorbar"] = True
-        return img.opts(**opts)
+        return img.opts(**opts, **map_colours(field, z))
 
     def _marker(self, result: Any = None, revision: int = 0) -> hv.Points:
         r, s = self.result, self.state

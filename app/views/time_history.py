@@ -38,7 +38,7 @@ from bokeh.plotting import figure
 from ..state import ExplorerState
 from ..ui.labels import (ACTIVE_COLOR, GEAR_COLOR, MARK_COLOR, PIN_COLOR, REVERSE_COLOR,
                          STICK_COLOR, TOOTH_COLOR)
-from ..ui.present import figure_fonts, presents
+from ..ui.present import figure_fonts, presents, stretch
 from ..ui.plots import caption, file_stem, full_screen, name_saved_png, time_history_data
 
 #: The figure's height; while presenting it fills its cell of the Explorer's grid.
@@ -126,9 +126,7 @@ class TimeHistoryView(pn.viewable.Viewer):
         # while presenting, as high as its cell in the Explorer's grid (the window's height);
         # set on the figure, not the pane: the pane would copy the figure's stylesheets back
         # into its own parameters, which take only strings
-        mode = "stretch_both" if on else "stretch_width"
-        if self.fig.sizing_mode != mode:
-            self.fig.sizing_mode = mode
+        stretch(self.fig, on)
 
     def draw(self, *_: Any) -> None:
         run = self.state.result

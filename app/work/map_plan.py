@@ -21,6 +21,18 @@ MAX_WORK = 2e7  # points × (transient + record): about a minute on two cores
 _scheduler = ""
 
 
+def grid_refusal(nx: int, ny: int, periods: int) -> str | None:
+    """Why a map of ``nx`` × ``ny`` points of ``periods`` periods each is refused, or None."""
+    points = nx * ny
+    if points > MAX_POINTS:
+        return (f"the grid has {nx} × {ny} = {points} points; the allowed range is up to "
+                f"{MAX_POINTS:,} points.")
+    if points * periods > MAX_WORK:
+        return (f"points × (transient + recorded periods) = {points * periods:.3g}; the allowed "
+                f"range is up to {MAX_WORK:.0e} (fewer points or periods).")
+    return None
+
+
 def set_scheduler(address: str | None) -> None:
     """Where every session's maps run: ``""`` (the server's cores) or a Dask scheduler address."""
     global _scheduler
