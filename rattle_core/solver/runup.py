@@ -142,6 +142,19 @@ class RunupReplay(ImpactRows):
 
 
 
+def _drag_torques(g: Any, drag: Any, rpm: np.ndarray) -> np.ndarray:
+    """The gear's drag torque [N·m] at the speeds ``rpm``: its constant ``drag_torque_Nm``, or
+    ``drag(rpm)``, which must be finite and > 0 throughout."""
+    shape = np.shape(rpm)
+    if drag is None:
+        return np.full(shape, g.drag_torque_Nm)
+    torque = np.asarray(drag(rpm), dtype=np.float64) * np.ones(shape)
+    if not np.all(np.isfinite(torque)) or np.any(torque <= 0.0):
+        raise ValueError(f"drag must give a finite torque > 0 N·m at every speed of the run; "
+                         f"got {float(torque[~(np.isfinite(torque) & (torque > 0))][0])!r}")
+    return torque
+
+
 def _gear_index(gearbox: Gearbox, gear: int | str) -> int:
     names = [g.name for g in gearbox.gears]
     if isinstance(gear, str):
@@ -294,13 +307,7 @@ def runup_wall(gearbox: Gearbox, gear: int | str, rpm_from: float, rpm_to: float
 
     # flight deceleration: drag over inertia plus the mean rotation's acceleration
     rpm_b = rpm_from * (1.0 + kappa * np.append(starts, tau_end))
-    if drag is None:
-        torque = np.full(rpm_b.shape, g.drag_torque_Nm)
-    else:
-        torque = np.asarray(drag(rpm_b), dtype=np.float64) * np.ones(rpm_b.shape)
-        if not np.all(np.isfinite(torque)) or np.any(torque <= 0.0):
-            raise ValueError(f"drag must give a finite torque > 0 N·m at every speed of the run; "
-                             f"got {float(torque[~(np.isfinite(torque) & (torque > 0))][0])!r}")
+    torque = _drag_torques(g, drag, rpm_b)
     accel = scale * 2.0 * math.pi * c / 60.0                # R_d · ratio · dΩ/dt [m/s²]
     qn = 1.0 / (mass * H_ref * omega_ref ** 2 / (torque / g.base_radius_m + mass * accel))
     decel = np.empty((starts.size, 2))
@@ -412,13 +419,7 @@ def angle_runup_wall(gearbox: Gearbox, gear: int | str, angle: FilteredAngle, st
     mass = g.inertia_kgm2 / g.base_radius_m ** 2
     tau = omega_ref * (t - t[ia])
     length = np.diff(tau[ia:ib + 1])
-    if drag is None:
-        torque = np.full(ts.shape, g.drag_torque_Nm)
-    else:
-        torque = np.asarray(drag(rpm), dtype=np.float64) * np.ones(ts.shape)
-        if not np.all(np.isfinite(torque)) or np.any(torque <= 0.0):
-            raise ValueError(f"drag must give a finite torque > 0 N·m at every speed of the run; "
-                             f"got {float(torque[~(np.isfinite(torque) & (torque > 0))][0])!r}")
+    torque = _drag_torques(g, drag, rpm)
     accel = scale * angle.mean_speed(ts, 1)               # R_d · ratio · ψ̄'' [m/s²]
     qn = (torque / g.base_radius_m + mass * accel) / (mass * H_ref * omega_ref ** 2)
     decel = np.empty((length.size, 2))
