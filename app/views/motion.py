@@ -38,6 +38,7 @@ from ..ui.motion_js import MOTION_JS
 from ..ui.present import figure_fonts, presents
 from .present import present_button
 from ..ui.plots import time_history_data
+from ..work.threads import writes_bokeh
 
 #: Frames per forcing period, and most frames per run (more periods shown: fewer per period).
 FRAMES_PER_PERIOD, MIN_FRAMES_PER_PERIOD, MAX_FRAMES = 400, 24, 40_000
@@ -186,6 +187,7 @@ class MotionView(pn.viewable.Viewer):
     def __panel__(self):
         return self.view
 
+    @writes_bokeh
     def _present(self, *_: Any) -> None:
         """Presented, the drawing fills its cell beside the time history, with larger fonts."""
         on = presents(self.state, "motion")
@@ -201,6 +203,7 @@ class MotionView(pn.viewable.Viewer):
         self.parts["clock"].styles = {**self.parts["clock"].styles,
                                       "font-size": "17px" if on else "12px"}
 
+    @writes_bokeh
     def draw(self, *_: Any) -> None:
         """Send the current run's frames (and its first frame's teeth) to the page."""
         run = self.state.result

@@ -38,6 +38,7 @@ from ..state import ExplorerState
 from ..ui.job_panel import JobPanel
 from ..ui.widgets import message
 from ..work import runup as work
+from ..work.threads import writes_bokeh
 
 #: The audio element's CSS class, which the cursor's callback looks for.
 AUDIO_CSS = "gb-runup-audio"
@@ -207,6 +208,7 @@ class RunupView(pn.viewable.Viewer):
         self.loudness_pane = pn.pane.Bokeh(f, sizing_mode="stretch_width")
         self.intervals_plot = pn.pane.Bokeh(g, sizing_mode="stretch_width")
 
+    @writes_bokeh
     def _draw(self) -> None:
         r = self.result
         self.run_src.data = {"t": np.asarray(r["time_s"], dtype=float),

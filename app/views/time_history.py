@@ -39,6 +39,7 @@ from ..state import ExplorerState
 from ..ui.labels import (ACTIVE_COLOR, GEAR_COLOR, MARK_COLOR, PIN_COLOR, REVERSE_COLOR,
                          STICK_COLOR, TOOTH_COLOR)
 from ..ui.present import figure_fonts, presents, stretch
+from ..work.threads import writes_bokeh
 from ..ui.plots import caption, file_stem, full_screen, name_saved_png, time_history_data
 
 #: The figure's height; while presenting it fills its cell of the Explorer's grid.
@@ -112,6 +113,7 @@ class TimeHistoryView(pn.viewable.Viewer):
     def __panel__(self):
         return self.pane
 
+    @writes_bokeh
     def _present(self, *_: Any) -> None:
         """Presentation mode: a figure as large as its cell, larger fonts."""
         on = presents(self.state, "time_history")
@@ -128,6 +130,7 @@ class TimeHistoryView(pn.viewable.Viewer):
         # into its own parameters, which take only strings
         stretch(self.fig, on)
 
+    @writes_bokeh
     def draw(self, *_: Any) -> None:
         run = self.state.result
         if run is None:

@@ -12,12 +12,18 @@ Two sessions can therefore run Python at once, and HoloViews keeps process-wide 
 * :func:`unlocked` lets go of it around computation (a simulation never holds it);
 * :func:`later` runs a state change that comes from a HoloViews stream callback (a click, a
   zoom, which HoloViews runs outside the document's lock) on the session's next tick, where
-  Bokeh holds the lock.
+  Bokeh holds the lock;
+* :func:`writes_bokeh` marks a view's method that sets Bokeh models itself. Panel runs some
+  widget callbacks on the event loop without the document's lock (a click that arrives while
+  a debounced change is pending), and a Bokeh change made there raises in the server's
+  session; Panel's ``unlocked()``, which HoloViews uses for the same reason, collects the
+  changes and sends them to the page, held or not.
 """
 from __future__ import annotations
 
 import collections
 import contextlib
+import functools
 import logging
 import threading
 from typing import Any, Iterator
@@ -112,6 +118,16 @@ def unlocked() -> Iterator[None]:
     finally:
         for _ in range(depth):
             HV_LOCK.acquire()
+
+
+def writes_bokeh(method: Any) -> Any:
+    """``method`` runs inside Panel's ``unlocked()``: its Bokeh changes reach the page whether
+    or not the caller holds the document's lock (without a server it runs as it is)."""
+    @functools.wraps(method)
+    def held(*args: Any, **kwargs: Any) -> Any:
+        with pn.io.unlocked():
+            return method(*args, **kwargs)
+    return held
 
 
 def later(fn: Any, *args: Any) -> None:
