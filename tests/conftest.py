@@ -117,18 +117,31 @@ def free_port() -> int:
 
 
 class LogRecorder(logging.Handler):
-    """Keeps every record the server logs while the UI tests run."""
+    """Keeps every record the server logs while the UI tests run.
+
+    :meth:`tracebacks` reports the tracebacks logged since its last call: an error is reported
+    by the first check after it (in its own test, or the next one's), and does not fail every
+    later test too.
+    """
 
     def __init__(self):
         super().__init__(level=logging.DEBUG)
         self.records: list[logging.LogRecord] = []
+        self._seen = 0
 
     def emit(self, record: logging.LogRecord) -> None:
         self.records.append(record)
 
     def tracebacks(self) -> list[str]:
+        end = len(self.records)
+        out = self._tracebacks(self.records[self._seen:end])
+        self._seen = end
+        return out
+
+    @staticmethod
+    def _tracebacks(records: list[logging.LogRecord]) -> list[str]:
         out = []
-        for r in self.records:
+        for r in records:
             text = r.getMessage()
             if "WebSocketClosedError" in text and "Task exception was never retrieved" in text:
                 # tornado reports a patch Bokeh wrote to a socket the browser had just closed;

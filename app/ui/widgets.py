@@ -62,6 +62,19 @@ def deferred(obj: Any) -> Any:
                                   min_height=380)
 
 
+def built_when_shown(part: Any) -> Any:
+    """A holder that puts ``part`` in the page the first time ``part`` is visible: a plot
+    hidden until the user asks for it (a traced curve, the twin) costs a page build nothing."""
+    holder = pn.Column(sizing_mode=part.sizing_mode or "stretch_width", margin=0)
+
+    def show(*_: Any) -> None:
+        if part.visible and not holder.objects:
+            holder.append(part)
+    part.param.watch(show, "visible")
+    show()
+    return holder
+
+
 def shortened(v: Any) -> Any:
     """A float as a box shows it: nine significant digits, so a derived value (an engine speed
     from Λ) reads like a typed one and every box fits the same digits; others unchanged."""

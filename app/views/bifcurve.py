@@ -21,7 +21,7 @@ from ..core import CURVE_STYLES
 from ..state import ExplorerState
 from ..ui.job_panel import JobPanel
 from ..ui.plots import HoloViewsPane
-from ..ui.widgets import Choice, message
+from ..ui.widgets import Choice, built_when_shown, message
 from ..work.atlas import Curves, bifurcation_curve, from_job, to_core
 from ..work.branch import FIND_TRANSIENT
 from ..work.diagram_data import current_value, full_range
@@ -58,6 +58,7 @@ class CurveView(pn.viewable.Viewer):
         # shown once a curve is traced: before that it would be an empty 0–1 plot
         self.pane = HoloViewsPane(self.element, css_classes=["curve-plot"], width=380, height=300,
                                   visible=False)
+        self.holder = built_when_shown(self.pane)
         self.param.watch(lambda e: setattr(self.pane, "visible", self.curves is not None),
                          "revision")
         self.state.param.watch(self._on_click, ["result", "branch"])
@@ -69,7 +70,7 @@ class CurveView(pn.viewable.Viewer):
         return pn.Column(
             pn.Row(Choice(self.state, "curve_param2", PARAMS2, select=True, width=160),
                    self.run.cancel_button, self.hide_button),
-            message(self.state, "curve"), self.run.progress, self.run.status, self.pane,
+            message(self.state, "curve"), self.run.progress, self.run.status, self.holder,
             sizing_mode="stretch_width", css_classes=["bifurcation-curve"])
 
     # ----- which bifurcation ------------------------------------------------------------------

@@ -6,7 +6,7 @@ only when a parameter other than the swept one changes, while the current-value 
 follows every run. The x-range is the whole range asked for, stretched to hold the current
 value, so the marker, the rattle-free range, the onset of rattle (Λ_c) and the first chaotic
 value are on the plot, marked and labelled. Impacts are shaded by flank with datashader
-(``datashade`` and ``dynspread``); a zoom recomputes the visible region finer (a ``RangeXY``
+(:mod:`app.ui.shading`, shaded once for every session); a zoom recomputes the visible region finer (a ``RangeXY``
 stream), and a click (a ``Tap`` stream) sets the swept parameter. In physical units the
 diagram runs against engine speed and shows impulses in N·s.
 
@@ -21,26 +21,24 @@ from __future__ import annotations
 import weakref
 from typing import Any
 
-import datashader as ds
 import holoviews as hv
 import numpy as np
-import pandas as pd
 import panel as pn
 import param
 from bokeh.models import Span, WheelZoomTool
-from holoviews.operation.datashader import datashade, dynspread
 
 from ..work import tasks
 from ..work.diagram_data import (RECORD, TRANSIENT, ZOOM_VALUES, Diagram, current_value,
                                  diagram_key, from_work, marks, one_sided, request, run_value,
                                  shipped)
 from .continuation import branch_overlay
-from ..ui.labels import ACTIVE_COLOR, CHAOS_COLOR, MARK_COLOR, ONSET_COLOR, REVERSE_COLOR, num
+from ..ui.labels import CHAOS_COLOR, MARK_COLOR, ONSET_COLOR, num
 from ..ui.plots import (TOOLS, HoloViewsPane, PinMarkers, Zoom, caption, file_stem, padded,
                         save_as, weak_hook)
 from ..state import ExplorerState
 from ..work.threads import later
 from ..ui.present import figure_fonts, presents, stretch
+from ..ui.shading import PIXELS, shaded
 from ..ui.widgets import Choice, deferred, message, set_value
 from .present import present_button
 
@@ -48,8 +46,6 @@ OPTIONS = {"Ĩ vs Λ": "lam", "Ĩ vs φ₂": "phi2"}
 UNITS_OPTIONS = {"I vs engine speed": "rpm", "Ĩ vs φ₂": "phi2"}
 AXES = {"lam": "Λ", "phi2-paper": "φ₂ [°], the paper's convention (Figure 6)",
         "phi2-core": "φ₂ [°], the core's convention", "rpm": "engine speed [rpm]"}
-PIXELS = (640, 340)
-COLORS = {"active": ACTIVE_COLOR, "reverse": REVERSE_COLOR}
 
 
 class DiagramView(pn.viewable.Viewer):
@@ -241,13 +237,7 @@ class DiagramView(pn.viewable.Viewer):
             rgb = hv.RGB(np.zeros((h, w, 4), dtype=np.uint8), kdims,
                          bounds=(xr[0], yr[0], xr[1], yr[1]))
             return self.zoom.apply(rgb, xlim, ylim)
-        side = np.where(d.flank > 0, "active", "reverse")
-        df = pd.DataFrame({"x": d.x, "y": d.impulse, "side": pd.Categorical(side, categories=list(COLORS))})
-        rgb = dynspread(datashade(hv.Points(df, kdims, ["side"]), aggregator=ds.count_cat("side"),
-                                  color_key=COLORS, min_alpha=90, x_range=xr, y_range=yr,
-                                  width=w, height=h, dynamic=False),
-                        max_px=2, threshold=0.5, dynamic=False)
-        return self.zoom.apply(rgb, xlim, ylim)
+        return self.zoom.apply(shaded(d, kdims, xr, yr), xlim, ylim)
 
     def _marker_at(self) -> float:
         return current_value(self._name, self.state) if self.state.result is not None else self._span_x[0]

@@ -25,7 +25,7 @@ from ..core import TWO_PI
 from ..state import ExplorerState
 from ..ui.labels import ACTIVE_COLOR, REVERSE_COLOR, twin_text
 from ..ui.plots import TOOLS, HoloViewsPane, named_glyph, save_as
-from ..ui.widgets import Choice, Field, message
+from ..ui.widgets import Choice, Field, built_when_shown, message
 
 #: Forcing periods both gears are followed for, and samples per period.
 PERIODS, SAMPLES = 40, 40
@@ -94,7 +94,7 @@ class SensitivityView(pn.viewable.Viewer):
                           css_classes=["twin-gap"], linked_axes=True),
             sizing_mode="stretch_width", visible=s.twin)
         self.body = pn.Column(pn.Row(self.nudge, self.reset, sizing_mode="stretch_width"),
-                              message(s, "twin"), self.text, self.plots,
+                              message(s, "twin"), self.text, built_when_shown(self.plots),
                               visible=s.twin, sizing_mode="stretch_width")
         s.param.watch(self._update, ["result", "twin", "nudge", "twin_x0", "twin_v0"])
         self._update()
