@@ -43,8 +43,9 @@ def on_the_loop_unlocked(doc, fn) -> None:
 
 
 def test_a_preset_run_outside_the_lock_reaches_the_page(page, dashboard_server):
-    """A preset and the presented motion, applied unlocked on the loop: the page shows the
-    preset's Λ, a new time history, the large motion view, and the server logged nothing."""
+    """A preset, a pin and the presented motion, applied unlocked on the loop: the page shows
+    the preset's Λ, a new time history, A's line on the diagram, the large motion view, and
+    the server logged nothing."""
     open_dashboard(page, dashboard_server, "?lam=2.5")
     dash = max(dashboard_module.LIVE, key=lambda d: d.session.key)
     doc = dash.session.jobs.doc
@@ -55,6 +56,13 @@ def test_a_preset_run_outside_the_lock_reaches_the_page(page, dashboard_server):
     wait_for(lambda: dash.state.lam == pytest.approx(lam), 120, "the preset to be applied")
     wait_box(page, "lam", lam, timeout=60_000)
     page.wait_for_function(f"() => ({CHECKSUM})() !== {before!r}", timeout=60_000)
+
+    # a pin of the run shown: A's line on the diagram and A's curve on the time history
+    on_the_loop_unlocked(doc, dash.pin.pin)
+    wait_for(lambda: dash.state.pinned_result is not None, 120, "the pin to be published")
+    page.wait_for_function("() => { const d = Bokeh.documents[0];"
+                           " const s = d.get_model_by_name('pinned_value');"
+                           " return s != null && s.visible; }", timeout=60_000)
 
     on_the_loop_unlocked(doc, lambda: dash.state.param.update(present=True, stage="motion"))
     # the motion figure's ticks at presenting size: written by the view itself, not by Panel

@@ -36,7 +36,7 @@ from ..ui.labels import CHAOS_COLOR, MARK_COLOR, ONSET_COLOR, num
 from ..ui.plots import (TOOLS, HoloViewsPane, PinMarkers, Zoom, caption, file_stem, padded,
                         save_as, weak_hook)
 from ..state import ExplorerState
-from ..work.threads import later
+from ..work.threads import later, writes_bokeh
 from ..ui.present import figure_fonts, presents, stretch
 from ..ui.shading import PIXELS, shaded
 from ..ui.widgets import Choice, deferred, message, set_value
@@ -242,6 +242,7 @@ class DiagramView(pn.viewable.Viewer):
     def _marker_at(self) -> float:
         return current_value(self._name, self.state) if self.state.result is not None else self._span_x[0]
 
+    @writes_bokeh
     def _move_marker(self, *_: Any) -> None:
         """The current value moves with every run: one Bokeh property, not a HoloViews redraw."""
         span = self._span()
