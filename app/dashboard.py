@@ -122,9 +122,19 @@ class Shell:
                                 f'24px 12px; font-size: 18px; color: #a00;">{escape(text)}</div>')
 
 
+#: Views made of Panel widgets and plain Bokeh only, no HoloViews object: built without
+#: :data:`HV_LOCK`, so another session's redraw never waits for them (a test checks that
+#: they make no HoloViews element, map or stream).
+PLAIN_VIEWS = (Controls, UnitsView, PinView, NoiseView, TimeHistoryView, MotionView, SoundView,
+               RunupView, PresentView)
+
+
 def _built(view: type, **kwargs: Any) -> Any:
     """One view, built holding :data:`HV_LOCK` (its HoloViews streams) and letting go after,
-    so that another session's redraw waits for one view of this page, not for all of them."""
+    so that another session's redraw waits for one view of this page, not for all of them;
+    a view of :data:`PLAIN_VIEWS` without it."""
+    if view in PLAIN_VIEWS:
+        return view(**kwargs)
     with HV_LOCK:
         return view(**kwargs)
 

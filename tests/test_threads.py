@@ -112,3 +112,28 @@ def test_a_page_build_lets_another_session_in_between_its_views(job_pool, monkey
         assert got_in_at[0] < len(built)
     finally:
         d.destroy()
+
+
+def test_views_built_without_the_lock_make_no_holoviews_object(dash, monkeypatch):
+    """Each view of ``PLAIN_VIEWS`` (built without the lock) makes no HoloViews element, map
+    or stream; a view that does is counted (the check can fail)."""
+    import holoviews as hv
+    from app import dashboard as dashboard_module
+
+    made: list[str] = []
+    for cls in (hv.core.dimension.Dimensioned, hv.streams.Stream):
+        real = cls.__init__
+
+        def counted(self, *args, _real=real, **kwargs):
+            made.append(type(self).__name__)
+            _real(self, *args, **kwargs)
+        monkeypatch.setattr(cls, "__init__", counted)
+    extra = {"NoiseView": {"jobs": dash.session.jobs},
+             "RunupView": {"jobs": dash.session.jobs, "gearbox": dash.gearbox},
+             "PresentView": {"header": dash.shell.header}}
+    for view in dashboard_module.PLAIN_VIEWS:
+        made.clear()
+        view(state=dash.state, **extra.get(view.__name__, {}))
+        assert made == [], (view.__name__, made)
+    dashboard_module.SectionView(state=dash.state)
+    assert made  # a view with HoloViews plots is seen to make them
