@@ -209,23 +209,32 @@ def _no_sigint() -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def _sigint_deferred() -> Iterator[None]:
-    """A Ctrl-C during the block is noted, and raised as KeyboardInterrupt once it ends.
+def _sigint_noted() -> Iterator[threading.Event]:
+    """A Ctrl-C during the block sets the event yielded, and raises nothing.
 
-    Loading compiled kernels runs Python callbacks inside numba's compiled code, which print
-    and drop an exception raised in them ("Exception ignored in …"): a Ctrl-C landing there
-    was lost, and the server went on to serve.  Here the handler only takes note.
+    Python drops an exception raised inside a callback it calls on its own (a weak
+    reference's, or one numba's compiled code calls while loading kernels) with "Exception
+    ignored in …": a KeyboardInterrupt landing there was lost, and the server went on to
+    serve.  Here the handler only takes note.
     """
+    noted = threading.Event()
     if threading.current_thread() is not threading.main_thread():
-        yield
+        yield noted
         return
-    noted: list[int] = []
-    old = signal.signal(signal.SIGINT, lambda signum, frame: noted.append(signum))
+    old = signal.signal(signal.SIGINT, lambda signum, frame: noted.set())
     try:
-        yield
+        yield noted
     finally:
         signal.signal(signal.SIGINT, old)
-    if noted:
+
+
+@contextlib.contextmanager
+def _sigint_deferred() -> Iterator[None]:
+    """A Ctrl-C during the block is noted (:func:`_sigint_noted`), and raised as
+    KeyboardInterrupt once it ends."""
+    with _sigint_noted() as noted:
+        yield
+    if noted.is_set():
         raise KeyboardInterrupt
 
 
@@ -331,8 +340,11 @@ def serve(port: int = 5006, address: str = "localhost", show: bool = False,
                     print(f"2-D maps run on Dask: {scheduler}", flush=True)
             if threaded:
                 return server
-            while server.is_alive():
-                server.join(0.5)
+            with _sigint_noted() as stop:  # Ctrl-C ends the wait, and the server stops below
+                while server.is_alive() and not stop.wait(0.5):
+                    pass
+            if stop.is_set():
+                raise KeyboardInterrupt
         except BaseException:
             if server is not None:
                 _stop(server)

@@ -286,3 +286,22 @@ def test_a_ctrl_c_while_the_server_warms_up_is_raised_once_it_is_warm():
             steps.append("warm")
     assert steps == ["after the signal", "warm"]
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_a_ctrl_c_inside_a_weak_reference_callback_still_stops_the_server():
+    """The served dashboard waits for Ctrl-C with :func:`app.main._sigint_noted`: an
+    interrupt that lands while Python runs a weak reference's callback (where a raised
+    KeyboardInterrupt is printed and dropped) is still noted, and the handler is put back."""
+    import weakref
+
+    from app.main import _sigint_noted
+
+    class Thing:
+        pass
+    before = signal.getsignal(signal.SIGINT)
+    with _sigint_noted() as stop:
+        thing = Thing()
+        ref = weakref.ref(thing, lambda _: os.kill(os.getpid(), signal.SIGINT))
+        del thing  # the callback runs here, and the signal arrives inside it
+        assert stop.wait(10) and ref() is None
+    assert signal.getsignal(signal.SIGINT) is before

@@ -19,7 +19,7 @@ import urllib.request
 
 import param
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from panel.io.location import Location
 
@@ -132,6 +132,7 @@ def test_a_310_digit_lam_in_a_pin_link_is_said_beside_the_pin():
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(key=st.sampled_from(KEYS), value=hostile)
+@example(key="gb_target", value="[" * 156 + "]" * 156)  # once quoted whole: 401 characters
 def test_any_hostile_value_draws_the_page_and_says_so(key, value):
     """One hostile value under any key: the page draws its run and a message names the key."""
     session = opened("?" + urllib.parse.urlencode({key: value}))

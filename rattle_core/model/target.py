@@ -82,7 +82,7 @@ class Target:
             body, _, unit = part.strip().rpartition(" ")
             unit = unit.strip().lower()
             if unit not in METRICS or not body:
-                raise ValueError(f"target {part.strip()!r}: expected 'RPM:VALUE,... sone' or "
+                raise ValueError(f"target {part.strip()[:40]!r}: expected 'RPM:VALUE,... sone' or "
                                  "'RPM:VALUE,... dba'")
             pts = []
             for item in body.split(","):
@@ -90,9 +90,9 @@ class Target:
                 try:
                     pts.append((float(a), float(b)))
                 except ValueError:
-                    raise ValueError(f"target point {item.strip()!r} is not RPM:VALUE") from None
+                    raise ValueError(f"target point {item.strip()[:40]!r} is not RPM:VALUE") from None
                 if not sep:
-                    raise ValueError(f"target point {item.strip()!r} is not RPM:VALUE")
+                    raise ValueError(f"target point {item.strip()[:40]!r} is not RPM:VALUE")
             these = tuple(p[0] for p in pts)
             if rpm is not None and these != rpm:
                 raise ValueError("target curves must share their rpm points")
