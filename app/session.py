@@ -43,7 +43,7 @@ from .state import (GEARBOX_URL_KEYS, MAP_URL_KEYS, PHYSICAL_KEYS, RUN_KEYS, URL
 from .physical import LinkError, link, run_physical
 from .query import readable, rejection, serialize, update_query_as_written
 from .work.page_run import TIME_LIMIT, PageRun, run_kwargs
-from .work.threads import HV_LOCK, writes_bokeh
+from .work.threads import HV_LOCK
 
 log = logging.getLogger(__name__)
 
@@ -160,7 +160,6 @@ class Session:
             return
         self.refresh({e.name for e in events})
 
-    @writes_bokeh  # every view redraws from here; Panel may call this without the document lock
     def refresh(self, names: set[str], physical_wins: bool = False) -> bool:
         """Carry a change of ``names`` across the link, run, publish; False if it was refused."""
         if self._busy:

@@ -6,8 +6,6 @@ object; changed data or ranges shade anew; no more than ``KEEP`` rasters are kep
 """
 from __future__ import annotations
 
-import types
-
 import datashader as ds
 import holoviews as hv
 import numpy as np
@@ -16,14 +14,18 @@ import pytest
 from holoviews.operation.datashader import datashade, dynspread
 
 from app.ui import shading
+from app.work.diagram_data import Diagram
 
 KDIMS = [hv.Dimension("x", label="Λ"), hv.Dimension("y", label="impulse Ĩ")]
 
 
-def diagram(seed: int, n: int = 2000):
+def diagram(seed: int, n: int = 2000, nudge: float = 0.0) -> Diagram:
+    """Random impacts; ``nudge`` added to the first impulse."""
     rng = np.random.default_rng(seed)
-    return types.SimpleNamespace(x=rng.uniform(0.5, 4.0, n), impulse=rng.normal(0, 3, n),
-                                 flank=rng.choice(np.array([-1, 1], dtype=np.int8), n))
+    impulse = rng.normal(0, 3, n)
+    impulse[0] += nudge
+    return Diagram("lam", (0.5, 4.0), rng.uniform(0.5, 4.0, n), impulse,
+                   rng.choice(np.array([-1, 1], dtype=np.int8), n), np.zeros(0), np.zeros(0), "test")
 
 
 @pytest.fixture(autouse=True)
@@ -58,8 +60,7 @@ def test_a_raster_equals_datashader_and_is_shaded_once():
 def test_other_data_or_ranges_shade_anew_and_few_are_kept():
     d = diagram(2)
     shading.shaded(d, KDIMS, (0.5, 4.0), (-10.0, 10.0))
-    d.impulse[0] += 1e-9  # one impact changed in its last digits
-    shading.shaded(d, KDIMS, (0.5, 4.0), (-10.0, 10.0))
+    shading.shaded(diagram(2, nudge=1e-9), KDIMS, (0.5, 4.0), (-10.0, 10.0))  # one impact's last digits
     shading.shaded(d, KDIMS, (1.0, 2.0), (-10.0, 10.0))
     assert len(shading._SHADED) == 3
     for k in range(shading.KEEP + 3):

@@ -9,7 +9,6 @@ own, since each sets its options on what it gets (:class:`app.ui.plots.Zoom`).
 from __future__ import annotations
 
 import collections
-import hashlib
 import threading
 from typing import Any
 
@@ -32,11 +31,9 @@ _LOCK = threading.Lock()
 
 
 def shaded(d: Any, kdims: list, xr: tuple, yr: tuple) -> hv.RGB:
-    """The impacts of diagram ``d`` (``x``, ``impulse``, ``flank``) over ``xr`` × ``yr``."""
-    digest = hashlib.blake2b(digest_size=16)
-    for a in (d.x, d.impulse, d.flank):
-        digest.update(np.ascontiguousarray(a).data)
-    key = (digest.hexdigest(), tuple(map(float, xr)), tuple(map(float, yr)),
+    """The impacts of diagram ``d`` (a :class:`app.work.diagram_data.Diagram`: ``x``,
+    ``impulse``, ``flank`` and their ``digest``) over ``xr`` × ``yr``."""
+    key = (d.digest, tuple(map(float, xr)), tuple(map(float, yr)),
            tuple((k.name, k.label) for k in kdims))
     with _LOCK:
         rgb = _SHADED.get(key)

@@ -6,8 +6,8 @@ only when a parameter other than the swept one changes, while the current-value 
 follows every run. The x-range is the whole range asked for, stretched to hold the current
 value, so the marker, the rattle-free range, the onset of rattle (Λ_c) and the first chaotic
 value are on the plot, marked and labelled. Impacts are shaded by flank with datashader
-(:mod:`app.ui.shading`, shaded once for every session); a zoom recomputes the visible region finer (a ``RangeXY``
-stream), and a click (a ``Tap`` stream) sets the swept parameter. In physical units the
+(:mod:`app.ui.shading`, once for every session); a zoom recomputes the visible region finer
+(a ``RangeXY`` stream), and a click (a ``Tap`` stream) sets the swept parameter. In physical units the
 diagram runs against engine speed and shows impulses in N·s.
 
 The current-value marker is the one hand-written Bokeh piece here: a ``Span`` added to the

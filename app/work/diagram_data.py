@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import hashlib
 import math
 from typing import Any
 
@@ -120,6 +121,14 @@ class Diagram:
     regime: np.ndarray
     source: str
     refined: list = dataclasses.field(default_factory=list)
+
+    @functools.cached_property
+    def digest(self) -> str:
+        """A BLAKE2 digest of the impacts (``x``, ``impulse``, ``flank``): equal for equal data."""
+        h = hashlib.blake2b(digest_size=16)
+        for a in (self.x, self.impulse, self.flank):
+            h.update(np.ascontiguousarray(a).data)
+        return h.hexdigest()
 
     def merge(self, other: "Diagram") -> "Diagram":
         """This diagram with the region ``other`` covers replaced by ``other``'s finer values."""
