@@ -168,8 +168,13 @@ def create_app() -> pn.template.BootstrapTemplate:
                                    alive=lambda: not client_gone(doc)))
         except Abandoned:
             log.info("the page's client went away: its dashboard's build was abandoned")
-        except Exception as exc:  # the page says so instead of computing for ever
-            log.exception("building a page failed")
+        except Exception as exc:
+            if client_gone(doc):
+                # the session was torn down under the build: nobody is there to be told
+                log.info("the page's client went away; its dashboard's build ended in %s: %s",
+                         type(exc).__name__, exc)
+                return
+            log.exception("building a page failed")  # the page says so, not "computing…" for ever
             shell.fail(f"The page could not be built ({type(exc).__name__}: {exc}). "
                        "Reload it; if it fails again, the server's log says why.")
 

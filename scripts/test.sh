@@ -6,4 +6,8 @@ scripts/env.sh test
 export NUMBA_THREADING_LAYER="${NUMBA_THREADING_LAYER:-workqueue}"
 # the browser tests must run here, never be skipped: env.sh has installed Chromium
 export RATTLE_REQUIRE_UI="${RATTLE_REQUIRE_UI:-1}"
-exec .venv/bin/python -m pytest "$@"
+# three processes, a test file each at a time, in the order of tests/conftest.py (a browser-test
+# file, then its share of the others): a browser test leaves a core partly idle while it waits
+# on its page, and the third process fills it. -n 0 runs the suite in one process.
+exec .venv/bin/python -m pytest -n "${RATTLE_TEST_WORKERS:-3}" --dist loadfile \
+  --no-loadscope-reorder "$@"

@@ -21,6 +21,7 @@ import os
 import shutil
 import signal
 import socket
+import sys
 import tempfile
 import time
 import traceback
@@ -64,7 +65,28 @@ def pytest_unconfigure(config):
             shutil.rmtree(path, ignore_errors=True)
 
 
+def _alternated(items: list) -> list:
+    """The test files in turn: a browser-test file, then its share of the others, so the
+    processes of ``scripts/test.sh`` (``--dist loadfile --no-loadscope-reorder``) mostly run
+    both kinds at once. A browser test waits on its page and leaves a core partly idle, which a
+    computing test fills; browser files only, at the end, contend for the same core."""
+    files: dict[str, list] = {}
+    for item in items:
+        files.setdefault(item.nodeid.split("::", 1)[0], []).append(item)
+    ui = [f for f in files.values() if any("ui" in item.keywords for item in f)]
+    other = [f for f in files.values() if not any("ui" in item.keywords for item in f)]
+    if not ui:
+        return items
+    order: list = []
+    for k, browser_file in enumerate(ui):
+        order += browser_file
+        for f in other[k * len(other) // len(ui):(k + 1) * len(other) // len(ui)]:
+            order += f
+    return order
+
+
 def pytest_collection_modifyitems(config, items):
+    items[:] = _alternated(items)
     reason = _ui_unavailable()
     if reason is None:
         return
@@ -136,6 +158,8 @@ class LogRecorder(logging.Handler):
         end = len(self.records)
         out = self._tracebacks(self.records[self._seen:end])
         self._seen = end
+        for text in out:  # whole, in the failing test's captured stderr: pytest shortens the diff
+            print(f"server traceback: {text}", file=sys.stderr)
         return out
 
     @staticmethod
@@ -152,6 +176,9 @@ class LogRecorder(logging.Handler):
                 # Bokeh asserts when a page closes its socket before its session was attached
                 # (bokeh.server.connection.ServerConnection.session); nothing was served yet
                 continue
+            if r.exc_info:
+                # the exception itself, so a failing check says what was raised and where
+                text += "\n" + "".join(traceback.format_exception(*r.exc_info))[-2000:]
             if r.exc_info or "Traceback (most recent call last)" in text:
                 out.append(f"{r.name}: {text}")
         return out

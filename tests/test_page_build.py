@@ -108,3 +108,29 @@ def test_a_build_that_fails_says_so_where_computing_was(job_pool, monkeypatch):
     state._on_load(doc)
     text = layout.main[0][0].object
     assert "computing…" not in text and "could not be built" in text and "no run" in text
+
+
+def test_a_build_that_fails_after_its_client_left_logs_no_error(job_pool, monkeypatch, caplog):
+    """A build torn down under it (its client gone) is not a server error: it logs one line at
+    info, and no traceback; with the client still there the same failure is logged as an error."""
+    import logging
+
+    import app.main as main
+    for leaves in (True, False):
+        doc, ctx, layout = _page(1)
+
+        def broken(*args, **kwargs):
+            if leaves:
+                ctx._session.connection_count = 0
+            raise RuntimeError("torn down")
+        monkeypatch.setattr(main, "Dashboard", broken)
+        caplog.clear()
+        with caplog.at_level(logging.INFO, logger="app"):
+            state._on_load(doc)
+        errors = [r for r in caplog.records if r.levelno >= logging.ERROR or r.exc_info]
+        if leaves:
+            assert errors == []
+            assert any("went away" in r.getMessage() and "torn down" in r.getMessage()
+                       for r in caplog.records)
+        else:
+            assert [r.getMessage() for r in errors] == ["building a page failed"]
