@@ -305,19 +305,21 @@ def serve(port: int = 5006, address: str = "localhost", show: bool = False,
     if dask not in (None, "local"):
         raise ValueError(f"dask = {dask!r}; the only value is 'local'")
     with contextlib.ExitStack() as stack:
-        if dask == "local":
-            from .core import local_cluster
-            with _sigint_ignored():
-                cluster = local_cluster(2)
-            if not threaded:  # a server that returns keeps its cluster; one that ends closes it
-                stack.callback(cluster.close)
-            scheduler = cluster.scheduler_address
-        map_plan.set_scheduler(scheduler or "")
-        configure()
-        logging.basicConfig(level=logging.INFO,
-                            format="%(asctime)s %(name)s %(levelname)s %(message)s")
-        log.info("warming up (compiled kernels, shipped diagrams, worker processes)…")
+        # until the server is warm a Ctrl-C is noted and raised here at the end: loading HoloViews'
+        # extension and numba's kernels calls back into Python, where it would be lost
         with _sigint_deferred():
+            if dask == "local":
+                from .core import local_cluster
+                with _sigint_ignored():
+                    cluster = local_cluster(2)
+                if not threaded:  # a server that returns keeps its cluster; one that ends closes it
+                    stack.callback(cluster.close)
+                scheduler = cluster.scheduler_address
+            map_plan.set_scheduler(scheduler or "")
+            configure()
+            logging.basicConfig(level=logging.INFO,
+                                format="%(asctime)s %(name)s %(levelname)s %(message)s")
+            log.info("warming up (compiled kernels, shipped diagrams, worker processes)…")
             with _no_sigint():
                 jobs.pool(warm=tasks.warm_up)
             warm_up()

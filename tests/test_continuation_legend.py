@@ -1,6 +1,6 @@
 """The cascade's legend sits in the corner of the diagram the branches leave emptiest.
 
-:func:`app.views.continuation.legend_corner` counts the branch points in each corner box (a
+:func:`app.ui.branch_glyphs.legend_corner` counts the branch points in each corner box (a
 third of the view each way); the cascade from Λ = 1.2 rises to the right, so the legend must
 leave the bottom-right corner where it used to cover the branches.
 """
@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.views.continuation import legend_corner
+from app.ui.branch_glyphs import legend_corner
 
 
 def test_the_legend_goes_to_the_corner_without_branch_points():

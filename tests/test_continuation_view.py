@@ -14,13 +14,40 @@ import pytest
 from conftest import wait_for
 
 from app.work.branch import continue_both_ways, from_job
-from app.views.continuation import branch_overlay, multipliers_element
+from app.ui.branch_glyphs import BranchGlyphs
+from app.views.continuation import multipliers_element
 from app.presets import PRESETS
 from rattle_core import RattleParams
 from rattle_core.analysis.continuation import c_orbit
 
 R = 0.65
 LAM_PD = math.hypot(math.pi * (1 - R) / (1 + R), 2 * (1 + R**2) / (1 + R) ** 2)
+
+
+def drawn(glyphs) -> dict:
+    """What ``glyphs`` hold on their figure: per renderer name, its finite points (lines: all
+    polylines' points, one row each), and the legend."""
+    out = {}
+    for name, model in glyphs.models.items():
+        if name == "cont-legend":
+            continue
+        data = model.data_source.data
+        if "xs" in data:
+            xy = np.array([(x, y) for xs, ys in zip(data["xs"], data["ys"]) for x, y in zip(xs, ys)],
+                          float).reshape(-1, 2)
+        else:
+            xy = np.column_stack([np.asarray(data["x"], float), np.asarray(data["y"], float)])
+        out[name] = xy[np.isfinite(xy).all(axis=1)]
+    return out
+
+
+def on_a_figure(branch, name):
+    """``branch`` drawn on diagram ``name`` on a figure of its own: the glyphs."""
+    from bokeh.plotting import figure
+    glyphs = BranchGlyphs()
+    assert glyphs.attach(figure()) and glyphs.models is not None
+    glyphs.draw(branch, name, ((0.5, 4.0), (0.0, 10.0)))
+    return glyphs
 
 
 def continued(dash, **values):
@@ -37,12 +64,14 @@ def continued(dash, **values):
 def test_c_branch_on_the_diagram_is_two_pi_over_lambda_and_period_doubles_at_the_closed_form(dash):
     """Continued from regime C at Λ = 1.2: stable part Ĩ = 2π/Λ to 1e-9, PD mark at 1.23940."""
     s = dash.state
+    dash.diagram.pane.get_root()  # the diagram's figure, which the branch is drawn on as it comes
     b = continued(dash, **PRESETS["Fig 3C"][1])
     assert s.result.cls.regime == "C" and s.continuation and s.cont_from == 1.2
-    ov = dash.diagram.branch[()].values()
-    stable, unstable, marks, labels = ov[0], ov[1], ov[-3], ov[-2:]
-    xy = stable.array()
-    xy = xy[np.isfinite(xy[:, 0])]
+    # the branch arrives from the job's thread, and is drawn there just after it is set
+    wait_for(lambda: len(drawn(dash.diagram.branch)["cont-labels"]) > 0, 30, "the branch drawn")
+    glyphs = drawn(dash.diagram.branch)
+    xy = glyphs["cont-stable"]
+    marks = dash.diagram.branch.models["cont-marks"].data_source.data
     first = b.impacts[b.impacts["branch"] == 0]
     strict = np.concatenate([g[g["stable"]][["x", "y"]].to_numpy()
                              for _, g in first.groupby("direction")])
@@ -50,12 +79,20 @@ def test_c_branch_on_the_diagram_is_two_pi_over_lambda_and_period_doubles_at_the
     np.testing.assert_allclose(strict[:, 1], 2 * np.pi / strict[:, 0], rtol=0, atol=1e-9)
     # the drawn stable line is those points (plus where it meets the dashed part)
     assert np.isin(strict[:, 0], xy[:, 0]).all() and len(xy) <= len(strict) + 4
-    assert np.isfinite(unstable.dframe()["x"]).sum() >= 2 and unstable.dframe()["x"].max() > 3.9
-    pd_marks = marks.dframe()[marks.dframe()["label"] == "PD"]
-    assert len(pd_marks) >= 1
-    assert pd_marks["x"].to_numpy()[0] == pytest.approx(LAM_PD, abs=1e-6)
-    assert pd_marks["y"].to_numpy()[0] == pytest.approx(2 * np.pi / LAM_PD, abs=1e-6)
-    assert "PD" in {t.strip() for layer in labels for t in layer.dframe()["label"]}
+    unstable = glyphs["cont-unstable"]
+    assert len(unstable) >= 2 and unstable[:, 0].max() > 3.9
+    pd_at = [(x, y) for x, y, label in zip(marks["x"], marks["y"], marks["label"]) if label == "PD"]
+    assert len(pd_at) >= 1
+    assert pd_at[0][0] == pytest.approx(LAM_PD, abs=1e-6)
+    assert pd_at[0][1] == pytest.approx(2 * np.pi / LAM_PD, abs=1e-6)
+    labels = [dash.diagram.branch.models[n].data_source.data["label"]
+              for n in ("cont-labels", "cont-labels-r")]
+    assert "PD" in {t.strip() for layer in labels for t in layer}
+    # HoloViews empties the figure's legends when it redraws the diagram; the entries come back
+    dash.diagram.revision += 1
+    legend = dash.diagram.branch.models["cont-legend"]
+    assert legend.visible and [it.label.value for it in legend.items if it.visible] == [
+        b.legend(i) for i in b.numbers]
     # going up from Λ = 1.2 the branch is stable until 1.2394, then unstable (μ crossed −1)
     up = b.points[(b.points["direction"] == "up") & (b.points["branch"] == 0)]
     assert up[up["x"] < LAM_PD - 1e-6]["stable"].all()
@@ -118,10 +155,12 @@ def test_button_needs_a_periodic_regime_and_no_branch_is_drawn_for_another_diagr
     s = dash.state
     s.param.update(**PRESETS["Fig 3D"][1])
     assert s.result.cls.chaotic and dash.continuation.button.disabled
-    empty = branch_overlay(None, "lam")
-    assert not any(np.isfinite(e.dframe()["x"]).any() for e in empty.values())
+    assert not any(len(xy) for xy in drawn(on_a_figure(None, "lam")).values())
     b = continued(dash, **PRESETS["Fig 3C"][1])
-    assert not any(np.isfinite(e.dframe()["x"]).any() for e in branch_overlay(b, "phi2").values())
+    assert any(len(xy) for xy in drawn(on_a_figure(b, "lam")).values())
+    other = on_a_figure(b, "phi2")
+    assert not any(len(xy) for xy in drawn(other).values())
+    assert not other.models["cont-legend"].visible
 
 
 def test_the_cascade_from_the_c_orbit_draws_each_branch_with_a_legend(dash):
@@ -129,9 +168,6 @@ def test_the_cascade_from_the_c_orbit_draws_each_branch_with_a_legend(dash):
     branches are drawn, each in its own colour with a legend entry naming its period; the first
     doubling is at the closed-form Λ_PD, where the period-2 branch starts with both impulses
     2π/Λ_PD; the next doublings come closer and closer (the cascade)."""
-    import holoviews as hv
-    from bokeh.models import Legend
-
     b = continued(dash, **PRESETS["Fig 3C"][1])
     assert len(b.numbers) >= 2
     periods = [int(b.points[b.points["branch"] == i]["period"].iloc[0]) for i in b.numbers]
@@ -148,17 +184,34 @@ def test_the_cascade_from_the_c_orbit_draws_each_branch_with_a_legend(dash):
     assert b.legend(1) == f"period 2, PD at {LAM_PD:.5g}"
     assert b.legend(2) == f"period 4, PD at {pd_at[1]:.5g}"
     # drawn: one legend item per branch, each holding its solid and its dashed line
-    ov = dash.diagram.branch[()]
-    plot = hv.renderer("bokeh").get_plot(ov)
-    legend = next(m for m in plot.state.select(type=Legend) if m.name == "cont-legend")
+    legend = on_a_figure(b, "lam").models["cont-legend"]
+    assert legend.visible and legend.click_policy == "hide"  # a click on an entry hides that branch
     items = [it for it in legend.items if it.visible]
     assert [getattr(it.label, "value", it.label) for it in items] == [b.legend(i) for i in b.numbers]
     assert all(len(it.renderers) == 2 for it in items)
     colours = {it.renderers[0].glyph.line_color for it in items}
     assert len(colours) == len(items)
     for item in items:
-        drawn = item.renderers[0].data_source.data
-        assert np.isfinite(np.asarray(drawn["x"], dtype=float)).sum() >= 2
+        data = item.renderers[0].data_source.data
+        assert sum(np.isfinite(np.asarray(x, dtype=float)).sum() for x in data["xs"]) >= 2
+    # on a HoloViews figure the legend stays as drawn when HoloViews redraws the figure (it
+    # empties and moves the figure's first legend), as the diagram's hook puts it back
+    import holoviews as hv
+    glyphs, redraws, hooked = BranchGlyphs(), hv.streams.Counter(), []
+
+    def hook(plot, element):
+        hooked.append(plot.state)
+        if glyphs.attach(plot.state):
+            glyphs.draw(b, "lam", ((1.0, 4.0), (0.0, 10.0)))
+    dmap = hv.DynamicMap(lambda counter: hv.Curve([(1, 1), (4, 9)]) * hv.Scatter([(2, 3)]),
+                         streams=[redraws]).opts(hv.opts.Overlay(hooks=[hook]))
+    hv.renderer("bokeh").get_plot(dmap)
+    legend = glyphs.models["cont-legend"]
+    drawn_at = legend.location
+    redraws.event()
+    assert len(hooked) == 2 and hooked[0] is hooked[1]  # redrawn, on the same figure
+    assert legend.location == drawn_at and legend.click_policy == "hide"
+    assert [it.label.value for it in legend.items if it.visible] == [b.legend(i) for i in b.numbers]
 
 
 def test_crowded_period_doublings_get_one_label_each_and_none_overlap():
@@ -167,7 +220,7 @@ def test_crowded_period_doublings_get_one_label_each_and_none_overlap():
     lie inside the view, and those with no free row are left out rather than piled up."""
     import pandas as pd
 
-    from app.views.continuation import MAX_STACKED, mark_labels
+    from app.ui.branch_glyphs import MAX_STACKED, mark_labels
 
     xs = [1.2393959, 1.3764403, 1.4017300, 1.4069375, 1.4080577, 1.4083]
     marks = pd.DataFrame({"x": xs + xs[1:3], "y": [9.0, 9.5, 9.6, 9.7, 9.75, 9.8, 9.2, 9.3],

@@ -175,7 +175,9 @@ def test_a_semicolon_decimal_comma_upload_shows_what_was_read_and_draws_its_orde
     orders and the Campbell view are drawn, and the analysed orders are the ones asked for."""
     view.measurement.input.filename = "<b>daq</b>.csv"
     view._on_measurement(type("E", (), {"new": DAQ.read_bytes()})())
-    wait_for(lambda: view.order_map is not None, 180, "the upload's orders")
+    # the job's thread sets the orders, then draws the Campbell view
+    wait_for(lambda: view.order_map is not None and view.measurement.revision == 1, 180,
+             "the upload's orders and their Campbell view")
     text = view.measurement.detected.object
     assert "semicolon-separated" in text and "decimal mark &#x27;,&#x27;" in text
     assert "Zeit" in text and "Drehzahl" in text and "4000 samples" in text

@@ -5,9 +5,9 @@ records in the state where the orbit is taken (``continuation``, ``cont_from``: 
 URL), and the view runs :func:`app.work.branch.continue_both_ways` as the session's
 ``continuation`` job (progress, cancel, killed with the session; disk-cached, so a reopened
 link redraws the branch from the cache). The result goes to ``state.branch``, which the
-diagram draws with :func:`branch_overlay`: stable parts solid, unstable parts dashed,
-bifurcations marked and labelled, each branch in its own colour with a legend entry that
-names its period and where it starts (the branches that period doublings start, the cascade,
+diagram draws with :class:`app.ui.branch_glyphs.BranchGlyphs`: stable parts solid, unstable
+parts dashed, bifurcations marked and labelled, each branch in its own colour with a legend
+entry that names its period and where it starts (the branches that period doublings start, the cascade,
 are followed in the same job). Beside the status, a small plot shows the Floquet
 multipliers of the branch point nearest the current value of the swept parameter against the
 unit circle.
@@ -22,12 +22,10 @@ from typing import Any
 
 import holoviews as hv
 import numpy as np
-import pandas as pd
 import panel as pn
 import param
 
-from ..work.branch import (FIND_TRANSIENT, MAX_SWITCHED, Branch, from_job, continue_both_ways,
-                           is_periodic)
+from ..work.branch import FIND_TRANSIENT, Branch, from_job, continue_both_ways, is_periodic
 from ..core import paper_phi2_to_core
 from ..work.diagram_data import current_value, diagram_key, full_range
 from ..state import ExplorerState
@@ -35,12 +33,7 @@ from ..ui.plots import HoloViewsPane, named_glyph
 from ..ui.labels import not_periodic_text
 from ..ui.widgets import message
 
-BRANCH_COLOR = "#6c3483"
-#: One colour per branch: the continued orbit's first, then those started at period doublings.
-BRANCH_COLORS = (BRANCH_COLOR, "#117a65", "#b9770e", "#1a5276", "#922b21")
 STABLE_COLOR, UNSTABLE_COLOR = "#1e8449", "#c0392b"
-#: Most bifurcation labels stacked above one another where their bifurcations crowd.
-MAX_STACKED = 3
 
 
 def swept(state: ExplorerState) -> str:
@@ -58,149 +51,6 @@ def core_bounds(name: str, phases: str, lo: float, hi: float) -> tuple[float, fl
 
 
 _named = named_glyph
-
-
-def legend_corner(segments: list[np.ndarray],
-                  limits: tuple[tuple[float, float], tuple[float, float]] | None) -> str:
-    """The corner of the view (``limits``) whose box, a third of the width by a third of the
-    height, holds the fewest points of the branches' polylines ``segments``: the legend's place."""
-    pts = np.concatenate([np.asarray(seg, float).reshape(-1, 2) for seg in segments]
-                         or [np.empty((0, 2))])
-    pts = pts[np.isfinite(pts).all(axis=1)]
-    if limits is None and not len(pts):
-        return "bottom_right"
-    (x0, x1), (y0, y1) = limits or ((pts[:, 0].min(), pts[:, 0].max()), (pts[:, 1].min(), pts[:, 1].max()))
-    wx, wy = (x1 - x0) / 3.0, (y1 - y0) / 3.0
-    boxes = {"bottom_right": (x1 - wx, x1, y0, y0 + wy), "top_right": (x1 - wx, x1, y1 - wy, y1),
-             "bottom_left": (x0, x0 + wx, y0, y0 + wy), "top_left": (x0, x0 + wx, y1 - wy, y1)}
-    x, y = pts[:, 0], pts[:, 1]
-    count = {c: int(((x >= a) & (x <= b) & (y >= lo) & (y <= hi)).sum())
-             for c, (a, b, lo, hi) in boxes.items()}
-    return min(boxes, key=lambda c: count[c])  # ties: the order above
-
-
-def _legend_entry(number: int, label: str, corner: str = "bottom_right"):
-    """A HoloViews hook adding the line's renderer to branch ``number``'s entry of the legend
-    ``cont-legend`` (made on first use), labelled ``label`` and hidden when ``label`` is empty;
-    the legend goes in ``corner`` of the plot (:func:`legend_corner`).
-
-    The legend is Bokeh's, not HoloViews': a HoloViews label that changes makes a new renderer
-    at every new branch, while these lines keep theirs.
-    """
-    def hook(plot: Any, element: Any) -> None:
-        from bokeh.core.properties import value
-        from bokeh.models import Legend, LegendItem
-        renderer = plot.handles.get("glyph_renderer")
-        fig = plot.state
-        if renderer is None or fig is None:
-            return
-        legend = next((m for m in fig.center if isinstance(m, Legend) and m.name == "cont-legend"),
-                      None)
-        if legend is None:
-            legend = Legend(name="cont-legend", location="bottom_right", label_text_font_size="8pt",
-                            background_fill_alpha=0.6, padding=4, spacing=0, click_policy="hide")
-            fig.add_layout(legend)
-        if legend.location != corner:
-            legend.location = corner
-        item = next((it for it in legend.items if it.name == f"cont-branch-{number}"), None)
-        if item is None:
-            item = LegendItem(name=f"cont-branch-{number}", label=value(label), renderers=[])
-            legend.items = sorted([*legend.items, item], key=lambda it: it.name)
-        if renderer not in item.renderers:
-            item.renderers = [*item.renderers, renderer]
-        if getattr(item.label, "value", None) != label:  # a value: a plain string means a column
-            item.label = value(label)
-        item.visible = bool(label)
-    return hook
-
-
-#: A path of one blank point: Bokeh reports an error for a line glyph with no coordinates.
-_BLANK = np.full((1, 2), np.nan)
-
-
-def joined(segments: list[np.ndarray]) -> np.ndarray:
-    """Polylines as one ``(x, y)`` array, NaN rows between them (one line glyph draws them)."""
-    if not segments:
-        return _BLANK
-    gap = np.full((1, 2), np.nan)
-    return np.concatenate([part for seg in segments for part in (seg, gap)][:-1])
-
-
-def branch_overlay(branch: Branch | None, name: str, limits: Any = None,
-                   large: bool = False) -> hv.Overlay:
-    """The branches on the diagram: stable solid, unstable dashed, one colour and one legend
-    entry per branch, bifurcations marked and labelled (empty, unlabelled elements where there
-    is no branch for diagram ``name``).
-
-    Each bifurcation is labelled once, inside ``limits`` (the view's ``((x0, x1), (y0, y1))``):
-    near the right edge to its left, and close neighbours a row apart, so labels neither clip
-    nor overlap (``large`` ones for a presented diagram, whose figure is larger in proportion).
-    """
-    kdims = [hv.Dimension("x"), hv.Dimension("y")]
-    ok = branch is not None and branch.name == name
-    held = branch.numbers if ok else []
-    lines = []
-    corner = legend_corner([seg for i in held for stable in (True, False)
-                            for seg in branch.segments(stable, i)], limits) if ok else "bottom_right"
-    for i in range(1 + MAX_SWITCHED):
-        here = i in held
-        label = branch.legend(i) if here else ""
-        suffix = f"-{i}" if i else ""
-        colour = BRANCH_COLORS[i % len(BRANCH_COLORS)]
-        lines += [
-            hv.Curve(joined(branch.segments(True, i)) if here else _BLANK, *kdims).opts(
-                color=colour, line_width=2.5,
-                hooks=[_named("cont-stable" + suffix), _legend_entry(i, label, corner)]),
-            hv.Curve(joined(branch.segments(False, i)) if here else _BLANK, *kdims).opts(
-                color=colour, line_width=2, line_dash="dashed",
-                hooks=[_named("cont-unstable" + suffix), _legend_entry(i, label, corner)])]
-    marks = branch.marks[["x", "y", "label", "message"]].reset_index(drop=True) if ok else None
-    if marks is None or not len(marks):  # one blank row: Bokeh cannot draw empty text columns
-        marks = pd.DataFrame({"x": [np.nan], "y": [np.nan], "label": [""], "message": [""]})
-    left, right = mark_labels(branch.marks if ok else None, limits)
-    text = {"text_font_size": "13pt" if large else "9pt", "text_color": "black", "text_baseline": "bottom"}
-    return hv.Overlay([
-        *lines,
-        hv.Points(marks, kdims, ["label", "message"]).opts(
-            color="black", fill_color="white", size=9, marker="diamond", line_width=1.5,
-            tools=["hover"], hooks=[_named("cont-marks")]),
-        hv.Labels(left, kdims, ["label"]).opts(text_align="left", hooks=[_named("cont-labels")], **text),
-        hv.Labels(right, kdims, ["label"]).opts(text_align="right", hooks=[_named("cont-labels-r")],
-                                                **text)])
-
-
-def mark_labels(marks: Any, limits: Any) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Where the bifurcation labels go: ``(left-aligned, right-aligned)`` frames of x, y, label.
-
-    One label per bifurcation (at its highest impulse); a label whose neighbour on the left is
-    closer than a label's width moves up to the first free row, at most :data:`MAX_STACKED`
-    rows, and one that finds no row below the top is left out (its diamond stays, named on
-    hover); labels in the right quarter of the view read leftwards, so none runs out of the plot.
-    """
-    blank = pd.DataFrame({"x": [np.nan], "y": [np.nan], "label": [""]})
-    if marks is None or not len(marks):
-        return blank, blank.copy()
-    one = (marks.sort_values("y").drop_duplicates(["kind", "x"], keep="last")
-           .sort_values("x").reset_index(drop=True))
-    if limits is None:
-        (x0, x1), (y0, y1) = (one["x"].min(), one["x"].max()), (one["y"].min(), one["y"].max())
-    else:
-        (x0, x1), (y0, y1) = limits
-    dx, dy = max(x1 - x0, 1e-300), max(y1 - y0, 1e-300)
-    rows: list[tuple[float, float, str, bool]] = []
-    placed: list[tuple[float, float]] = []
-    for x, y, label in zip(one["x"], one["y"], one["label"]):
-        near = [yl for xl, yl in placed if x - xl < 0.08 * dx]
-        yl = y + 0.015 * dy
-        while any(abs(yl - other) < 0.06 * dy for other in near):
-            yl += 0.06 * dy
-        if yl > y1 - 0.04 * dy or len(near) >= MAX_STACKED:
-            continue  # no room: its diamond stays, named on hover, rather than a pile of labels
-        placed.append((float(x), yl))
-        rows.append((float(x), float(yl), f" {label} ", x > x0 + 0.75 * dx))
-    frame = pd.DataFrame(rows, columns=["x", "y", "label", "right"])
-    out = [frame[frame["right"] == side][["x", "y", "label"]] for side in (False, True)]
-    return tuple(f if len(f) else blank.copy() for f in out)  # type: ignore[return-value]
 
 
 def multipliers_element(branch: Branch | None, value: float) -> hv.Overlay:

@@ -10,11 +10,13 @@ value are on the plot, marked and labelled. Impacts are shaded by flank with dat
 (a ``RangeXY`` stream), and a click (a ``Tap`` stream) sets the swept parameter. In physical units the
 diagram runs against engine speed and shows impulses in N·s.
 
-The current-value marker is the one hand-written Bokeh piece here: a ``Span`` added to the
-HoloViews figure, whose location each run sets. As a layer of the HoloViews overlay it cost a
+The current-value marker is hand-written Bokeh: a ``Span`` added to the HoloViews figure,
+whose location each run sets. As a layer of the HoloViews overlay it cost a
 redraw of the whole overlay (about 30 ms of server CPU: range computation over the raster and
 option handling), a fifth of the slider budget, to move one line. A pinned run's value (A)
-gets a dashed line beside it, both named A and B (:class:`app.ui.plots.PinMarkers`).
+gets a dashed line beside it, both named A and B (:class:`app.ui.plots.PinMarkers`). The
+continued branch is hand-written Bokeh too (:class:`app.ui.branch_glyphs.BranchGlyphs`),
+so a page's plot build holds the HoloViews lock for the raster and the marks only.
 """
 from __future__ import annotations
 
@@ -31,7 +33,7 @@ from ..work import tasks
 from ..work.diagram_data import (RECORD, TRANSIENT, ZOOM_VALUES, Diagram, current_value,
                                  diagram_key, from_work, marks, one_sided, request, run_value,
                                  shipped)
-from .continuation import branch_overlay
+from ..ui.branch_glyphs import BranchGlyphs
 from ..ui.labels import CHAOS_COLOR, MARK_COLOR, ONSET_COLOR, num
 from ..ui.plots import (TOOLS, HoloViewsPane, PinMarkers, Zoom, caption, file_stem, padded,
                         save_as, weak_hook)
@@ -75,8 +77,7 @@ class DiagramView(pn.viewable.Viewer):
         hv.streams.PlotReset(source=self.points).add_subscriber(self.zoom._reset)
         self.marks = hv.DynamicMap(self._marks, streams=[
             hv.streams.Params(self.state, ["overlays"]), hv.streams.Params(self, ["marks_revision"])])
-        self.branch = hv.DynamicMap(self._branch, streams=[
-            hv.streams.Params(self.state, ["branch"]), hv.streams.Params(self, ["marks_revision"])])
+        self.branch = BranchGlyphs()
         self._span: Any = lambda: None
         self.pins = PinMarkers()
         self.tap = hv.streams.Tap(source=self.points)
@@ -89,7 +90,7 @@ class DiagramView(pn.viewable.Viewer):
                                                css_classes=["bif-progress"])
         self.status = pn.pane.HTML("", css_classes=["bif-status"], margin=(0, 10),
                                    sizing_mode="stretch_width")
-        plot = (self.points * self.marks * self.branch).opts(
+        plot = (self.points * self.marks).opts(
             hv.opts.Overlay(responsive=True, height=380, hooks=[weak_hook(self._name_plot)]),
             hv.opts.RGB(tools=[*TOOLS, "tap"], active_tools=["wheel_zoom"]))
         self.pane = HoloViewsPane(plot, sizing_mode="stretch_width", min_height=380,
@@ -102,6 +103,8 @@ class DiagramView(pn.viewable.Viewer):
         s.param.watch(self._present, ["present", "stage"])
         s.param.watch(self._update, ["result", "bif", "phases"])
         s.param.watch(self._move_marker, ["result", "pinned_result"])
+        s.param.watch(self._draw_branch, "branch")
+        self.param.watch(self._draw_branch, "marks_revision")
         s.param.watch(self._on_units, "units")
         if s.units and s.bif == "lam":  # in physical units Λ runs as engine speed
             s.bif = "rpm"
@@ -282,10 +285,14 @@ class DiagramView(pn.viewable.Viewer):
             color="#27ae60", line_width=1.5, line_dash="dotted")
         return self.zoom.apply(segs * text * paths, xlim, ylim)
 
-    def _branch(self, branch: Any = None, marks_revision: int = 0) -> hv.Overlay:
-        """The continued branch (``state.branch``), drawn by :mod:`app.views.continuation`."""
-        return self.zoom.apply(branch_overlay(branch, self._name, self._limits(),
-                                              large=presents(self.state, "diagram")), *self._limits())
+    @writes_bokeh
+    def _draw_branch(self, *_: Any) -> None:
+        """The continued branch (``state.branch``), drawn by :class:`~app.ui.branch_glyphs.BranchGlyphs`."""
+        self._branch_drawn()
+
+    def _branch_drawn(self) -> None:
+        self.branch.draw(self.state.branch, self._name, self._limits(),
+                         large=presents(self.state, "diagram"))
 
     def _name_plot(self, plot: Any, element: Any) -> None:
         """Title (the parameters, so a saved PNG carries them) and the save tool's file name."""
@@ -296,6 +303,8 @@ class DiagramView(pn.viewable.Viewer):
             plot.state.add_layout(span)
             self._span = weakref.ref(span)
         self.pins.attach(plot.state, self._pinned_at(), self._marker_at())
+        if self.branch.attach(plot.state):  # inside HoloViews' own write of the figure
+            self._branch_drawn()
         if plot.state.title.text != self._title:
             plot.state.title.text = self._title
         figure_fonts(plot.state, presents(self.state, "diagram"), title="9pt")

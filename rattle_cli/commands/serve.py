@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import ipaddress
 import re
+import signal
 import socket
 import threading
 
@@ -81,8 +82,19 @@ def run(args: argparse.Namespace) -> int:
         kwargs["scheduler"] = args.scheduler
     if args.dask is not None:
         kwargs["dask"] = args.dask
-    # the repository's app/ folder, installed as rattle_app (see the README)
-    from rattle_app.main import serve
+    # Panel, Bokeh and numba load for seconds: a Ctrl-C meanwhile is noted, not raised, since
+    # raised there it can land in a callback Python calls on its own (a weak reference's),
+    # which prints it as "Exception ignored" and drops it, and the server would go on to serve
+    noted = threading.Event()
+    old = signal.signal(signal.SIGINT, lambda signum, frame: noted.set())
+    try:
+        # the repository's app/ folder, installed as rattle_app (see the README)
+        from rattle_app.main import serve
+    finally:
+        signal.signal(signal.SIGINT, old)
+    if noted.is_set():
+        info(args, "stopped")
+        return 0
     try:  # serve() prints the address itself, once the port answers
         serve(**kwargs)
     except KeyboardInterrupt:  # Ctrl+C is how a server is meant to stop
