@@ -7,8 +7,10 @@
 * ``dash`` is one dashboard session built without a server or browser (the update path, the
   views), torn down like a closed session; its background jobs run in ``job_pool``'s worker
   processes, and ``wait_for`` waits for their results.
-* ``dashboard_server`` serves the real dashboard once per test session on a free port and
+* ``dashboard_server`` serves the real dashboard once per test process on a free port and
   records every log line, so tests can assert that the server printed no traceback.
+* ``scripts/test.sh`` runs the suite on three processes (pytest-xdist, a file each at a time),
+  browser-test files in turn with the others (:func:`_alternated`).
 * The run has a disk cache of its own, empty at the start, so no test is served a result that
   an earlier run left, and a config directory of its own for the cache's signing key (the
   worker processes inherit both).
