@@ -9,7 +9,7 @@
   processes, and ``wait_for`` waits for their results.
 * ``dashboard_server`` serves the real dashboard once per test process on a free port and
   records every log line, so tests can assert that the server printed no traceback.
-* ``scripts/test.sh`` runs the suite on three processes (pytest-xdist, a file each at a time),
+* ``scripts/test.sh`` runs the suite on two processes (pytest-xdist, a file each at a time),
   browser-test files in turn with the others (:func:`_alternated`).
 * The run has a disk cache of its own, empty at the start, so no test is served a result that
   an earlier run left, and a config directory of its own for the cache's signing key (the
@@ -169,6 +169,8 @@ class LogRecorder(logging.Handler):
     def emit(self, record: logging.LogRecord) -> None:
         if not LogRecorder.in_ui_test and record.thread == threading.main_thread().ident:
             return
+        if record.name.startswith("distributed"):
+            return  # a Dask cluster another test of this process started (the server runs none)
         self.records.append(record)
 
     def tracebacks(self) -> list[str]:
