@@ -5,7 +5,7 @@ comparison and the Maps tab's map each carry the button. A click puts ``present=
 ``stage=<view>`` in the URL, hides the sidebar, and at 1280×720 the view's figure fills most of
 the window below the header, with presenting fonts, and nothing scrolls either way. Sizes and
 fonts are read from the page: the figures' boxes from their Bokeh views, the tick fonts from
-their models.
+their models. One page presents each view in turn, leaving each presentation before the next.
 """
 from __future__ import annotations
 
@@ -46,18 +46,9 @@ STAGES = {"diagram": ("bifurcation", 0.6, 0.6),
           "maps": ("map_figure", 0.6, 0.7)}
 
 
-@pytest.mark.parametrize("stage", sorted(STAGES))
-def test_present_this_fills_a_projector_with_that_view(page, dashboard_server, stage):
-    """Its "Present this" button presents the view: the URL says so, the sidebar is gone, the
-    figure fills most of a 1280×720 window at presenting fonts, and nothing scrolls."""
+def present(page, stage: str) -> None:
+    """Click ``stage``'s "Present this" and check that the view fills the window alone."""
     name, tall, wide = STAGES[stage]
-    page.set_viewport_size(PROJECTOR)
-    open_dashboard(page, dashboard_server, SHORT)
-    if stage == "pin":
-        page.locator(".pin-run button").first.click()
-        page.wait_for_function("() => /[?&]pin=[^&]/.test(window.location.search)", timeout=60_000)
-    if stage == "maps":
-        page.locator(".bk-tab", has_text="Maps").first.click()
     button = page.locator(f".present-{stage} button").first
     expect(button).to_have_text("Present this")
     button.click()
@@ -76,9 +67,37 @@ def test_present_this_fills_a_projector_with_that_view(page, dashboard_server, s
     painted(page)
     look = page.evaluate(LOOK, name)
     b = look["box"]
-    assert look["width"] <= look["vw"] and look["height"] <= look["vh"], look
-    assert look["mainScroll"] <= look["mainClient"], look
-    assert look["mainScrollW"] <= look["mainClientW"], look
-    assert look["header"] <= b["top"] and b["bottom"] <= look["vh"] + 1, look
-    assert 0 <= b["left"] and b["right"] <= look["vw"], look
+    assert look["width"] <= look["vw"] and look["height"] <= look["vh"], (stage, look)
+    assert look["mainScroll"] <= look["mainClient"], (stage, look)
+    assert look["mainScrollW"] <= look["mainClientW"], (stage, look)
+    assert look["header"] <= b["top"] and b["bottom"] <= look["vh"] + 1, (stage, look)
+    assert 0 <= b["left"] and b["right"] <= look["vw"], (stage, look)
     expect(button).to_be_hidden()
+
+
+def leave(page, stage: str) -> None:
+    """Exit the presentation: the URL says so, the sidebar and the view's button are back."""
+    page.get_by_role("button", name="Exit presentation").click()
+    page.wait_for_function(
+        "() => new URLSearchParams(window.location.search).get('present') !== 'true'",
+        timeout=60_000)
+    page.wait_for_function("() => document.getElementById('sidebar').getBoundingClientRect().width > 100",
+                           timeout=60_000)
+    expect(page.locator(f".present-{stage} button").first).to_be_visible(timeout=60_000)
+
+
+def test_present_this_fills_a_projector_with_each_view_in_turn(page, dashboard_server):
+    """Each view's "Present this" button presents it, in one page: the URL says so, the sidebar
+    is gone, the figure fills most of a 1280×720 window at presenting fonts, and nothing
+    scrolls; "Exit presentation" brings the page back for the next one."""
+    page.set_viewport_size(PROJECTOR)
+    open_dashboard(page, dashboard_server, SHORT)
+    for stage in ("diagram", "motion", "pin", "maps"):
+        if stage == "pin":
+            page.locator(".pin-run button").first.click()
+            page.wait_for_function("() => /[?&]pin=[^&]/.test(window.location.search)",
+                                   timeout=60_000)
+        if stage == "maps":
+            page.locator(".bk-tab", has_text="Maps").first.click()
+        present(page, stage)
+        leave(page, stage)

@@ -1,7 +1,8 @@
 """Browser tests of what a hostile link or a closed page can do to the server: nothing.
 
-* Every URL key (and a key name) with script payloads: the page opens no dialog, each value
-  is refused with a message that shows the payload as text, and the state stays good.
+* Every URL key (and a key name) with script payloads at once: the page opens no dialog, each
+  value is refused with a message that shows the payload as text, and the state stays good.
+  Each key alone is checked without a browser, in every tab (``test_url_payloads.py``).
 * No page can choose where the server connects (the Dask scheduler is the command line's).
 * A closed session is freed: once the server has destroyed it, one garbage collection frees
   its dashboard, state and document, and its background work is cancelled.
@@ -56,19 +57,6 @@ def test_every_url_key_with_a_script_payload_runs_nothing(page, dashboard_server
     page.locator(".rattle-badge").first.wait_for(timeout=20_000)
     painted(page)  # every message and the badge drawn: any script among them would have run
     assert dialogs == []
-    assert dashboard_server["log"].tracebacks() == []
-
-
-@pytest.mark.parametrize("key", [*URL_KEYS.values(), "map_x_axis", "gb_variant",
-                                 "<img src=x onerror=alert(1)>"])
-def test_each_url_key_alone_with_a_payload_opens_no_dialog(key, page, dashboard_server):
-    """One key at a time (each in its own session): no dialog, the page stays drawn."""
-    dialogs = watch_dialogs(page)
-    page.goto(f"{dashboard_server['url']}/?" + urllib.parse.urlencode({key: PAYLOADS[0]}))
-    page.wait_for_function(READY, timeout=120_000)
-    page.locator(".rattle-badge").first.wait_for(timeout=60_000)
-    painted(page)
-    assert dialogs == [], key
     assert dashboard_server["log"].tracebacks() == []
 
 
