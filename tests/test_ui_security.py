@@ -21,11 +21,10 @@ from app import session as session_module
 from app.state import URL_KEYS
 from test_ui import READY, box_value, open_dashboard, painted
 from conftest import patient_context, wait_for
+from test_url_payloads import PAYLOADS
 
 pytestmark = [pytest.mark.ui, pytest.mark.timeout(900)]
 
-PAYLOADS = ("<img src=x onerror=alert(document.domain)>", "<script>alert(42)</script>",
-            "\"><svg onload=alert(7)>")
 #: Keys whose control shows its message in the sidebar, while the Explorer tab is open.
 SHOWN = ("lam", "r", "j", "h2", "phi2")
 

@@ -27,7 +27,10 @@ from app.dashboard import TABS, Dashboard
 from app.main import configure, warm_up
 from app.state import URL_KEYS
 
-PAYLOAD = "<img src=x onerror=alert(document.domain)>"
+#: Markup that runs script when a browser parses it as HTML (the browser tests use all three).
+PAYLOADS = ("<img src=x onerror=alert(document.domain)>", "<script>alert(42)</script>",
+            "\"><svg onload=alert(7)>")
+PAYLOAD = PAYLOADS[0]
 #: Every key of the Explorer's state, two of the other tabs' keys, and a key that is itself a
 #: payload (an unknown key is named in the URL's message).
 KEYS = [*URL_KEYS.values(), "map_x_axis", "gb_variant", "<img src=x onerror=alert(1)>"]
