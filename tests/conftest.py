@@ -72,15 +72,20 @@ def _alternated(items: list) -> list:
     """The test files in turn: a browser-test file, then its share of the others, so the
     processes of ``scripts/test.sh`` (``--dist loadfile --no-loadscope-reorder``) mostly run
     both kinds at once. A browser test waits on its page and leaves a core partly idle, which a
-    computing test fills; browser files only, at the end, contend for the same core."""
+    computing test fills; browser files only, at the end, contend for the same core.
+
+    Files marked ``long`` come first: the processes take files in this order, and one that
+    took such a file last would end the run with it alone while the other stood idle."""
     files: dict[str, list] = {}
     for item in items:
         files.setdefault(item.nodeid.split("::", 1)[0], []).append(item)
-    ui = [f for f in files.values() if any("ui" in item.keywords for item in f)]
-    other = [f for f in files.values() if not any("ui" in item.keywords for item in f)]
+    first = [f for f in files.values() if any("long" in item.keywords for item in f)]
+    rest = [f for f in files.values() if f not in first]
+    ui = [f for f in rest if any("ui" in item.keywords for item in f)]
+    other = [f for f in rest if not any("ui" in item.keywords for item in f)]
     if not ui:
-        return items
-    order: list = []
+        return [item for f in first + other for item in f]
+    order: list = [item for f in first for item in f]
     for k, browser_file in enumerate(ui):
         order += browser_file
         for f in other[k * len(other) // len(ui):(k + 1) * len(other) // len(ui)]:

@@ -27,6 +27,9 @@ from app.dashboard import TABS, Dashboard
 from app.main import configure, warm_up
 from app.state import URL_KEYS
 
+#: Fifty sessions built and drawn in one process take minutes.
+pytestmark = pytest.mark.long
+
 #: Markup that runs script when a browser parses it as HTML (the browser tests use all three).
 PAYLOADS = ("<img src=x onerror=alert(document.domain)>", "<script>alert(42)</script>",
             "\"><svg onload=alert(7)>")
