@@ -2,6 +2,10 @@
 
 The page is read back as the user sees it: pixel colours of a screenshot, the values in the
 controls, the URL, the axes and legends of the plots in the page's Bokeh document.
+
+Checks that can share a page run as steps of one test on one page (a page load is the costly
+part of a browser test), in an order where no step spoils a later one. A diagram opened at
+Λ = 0.6, a page opened with an invalid r, and ``rattle serve`` itself each have a page of their own.
 """
 from __future__ import annotations
 
@@ -90,9 +94,72 @@ def settled(page) -> None:
     raise AssertionError(f"the map's frame kept moving: {last}")
 
 
-def test_intensity_map_pixels_follow_its_colour_bar(page, dashboard_server):
+def _live_dashboard():
+    """The server's dashboard of the page the test opened last."""
+    return max(dashboard_module.LIVE, key=lambda d: d.session.key)
+
+
+def _step_a_slider_drag_runs_once(page):
+    """Fix 9: dragging the Λ slider through many positions runs one simulation, on release."""
+    dash = _live_dashboard()  # the session has run its first simulation
+    runs = dash.session.runs
+    h = page.locator(".ctl-lam .noUi-handle").first.bounding_box()
+    x, y = h["x"] + h["width"] / 2, h["y"] + h["height"] / 2
+    page.mouse.move(x, y)
+    handle = page.locator(".ctl-lam .noUi-handle").first.element_handle()
+    page.mouse.down()
+    for k in range(1, 13):
+        before = handle.get_attribute("aria-valuenow")
+        page.mouse.move(x + 6 * k, y, steps=2)
+        # as a hand drags: each position is on the slider before the next move
+        page.wait_for_function("([h, v]) => h.getAttribute('aria-valuenow') !== v",
+                               arg=[handle, before], timeout=20_000)
+    page.mouse.up()
+    page.wait_for_function("(el) => parseFloat(el.value) > 3.3", arg=box(page, "lam").element_handle(),
+                           timeout=20_000)
+    lam = box_value(page, "lam")
+    wait_for(lambda: dash.state.result is not None and abs(dash.state.result.params.lam - lam) < 1e-12,
+             timeout=30, what="the run at the released value")
+    page.wait_for_function(f"() => Math.abs(parseFloat(new URLSearchParams(window.location.search)"
+                           f".get('lam')) - {lam}) < 1e-12", timeout=20_000)
+    assert dash.session.runs == runs + 1
+
+
+def _type_lambda(page, lam: float) -> None:
+    """Type Λ into its box and wait until the server has run it."""
+    dash = _live_dashboard()
+    set_input(page, ".ctl-lam", str(lam))
+    wait_box(page, "lam", lam)
+    wait_for(lambda: dash.state.result is not None and abs(dash.state.result.params.lam - lam) < 1e-12,
+             timeout=60, what=f"the run at Λ = {lam}")
+
+
+def _step_paper_45_degrees_gives_chaos_and_the_convention_is_in_the_url(page):
+    """Fix 3: typing the paper's 45° at Λ = 3.3 gives chaos; the core switch shows −135° and
+    goes into the URL; the φ₂ diagram runs over the paper's 0–360° of Figure 6."""
+    wait_box(page, "phi2", 0.0)
+    b = box(page, "phi2")
+    b.fill("45")
+    b.press("Enter")
+    page.locator(".rattle-badge[data-regime='D']").wait_for(timeout=20_000)
+    page.locator(".ctl-phases button", has_text="core").first.click()
+    wait_box(page, "phi2", -135.0)
+    page.wait_for_function("() => window.location.search.includes('phases=core')", timeout=10_000)
+    assert "phi2=-135" in page.url
+    page.locator(".rattle-badge[data-regime='D']").wait_for(timeout=20_000)
+    page.locator(".ctl-phases button", has_text="paper").first.click()
+    wait_box(page, "phi2", 45.0)
+    page.locator(".ctl-bif button", has_text="φ₂").first.click()
+    page.locator(".bif-status", has_text="φ₂ swept").first.wait_for(timeout=180_000)
+    page.wait_for_function(f"() => ({FIG})(['bifurcation', 0, 0]).xlabel.includes('φ₂')", timeout=60_000)
+    painted(page)
+    f = fig(page, "bifurcation")
+    assert (f["x0"], f["x1"]) == (pytest.approx(0.0, abs=1e-6), pytest.approx(360.0, abs=1e-6))
+    assert "paper" in f["xlabel"] and "Figure 6" in f["xlabel"]
+
+
+def _step_intensity_map_pixels_follow_its_colour_bar(page):
     """Fix 1: every cell of an intensity map is painted the colour bar's colour of its value."""
-    open_dashboard(page, dashboard_server)
     compute_map(page, 8, 6)
     select = page.locator(".ctl-field select").first
     log_map = f"() => {{ const m = ({MAP_IMAGE})(); return m != null && m.kind === 'LogColorMapper'; }}"
@@ -119,9 +186,82 @@ def test_intensity_map_pixels_follow_its_colour_bar(page, dashboard_server):
     assert checked >= 10
 
 
-def test_click_on_the_rpm_drag_torque_map_lands_there_and_the_url_follows(page, dashboard_server):
+def _step_units_mode_draws_the_time_history_in_um_against_ms(page):
+    """Fix 4: switching the units on puts the time history in µm against ms, SI metrics beside."""
+    page.locator(".units-switch").first.click()
+    page.wait_for_function(f"() => ({FIG})(['time_history', 0, 0]).ylabel.includes('µm')", timeout=20_000)
+    f = fig(page, "time_history")
+    assert f["xlabel"] == "t [ms]" and "rpm" in f["title"]
+    assert "1/s" in page.locator(".rattle-metrics table").first.inner_text()
+    # the units table is a view of its own, drawn on its own tick after the switch
+    page.locator(".units-table table.units-params").first.wait_for(state="visible", timeout=20_000)
+
+
+def _show_explorer(page) -> None:
+    """Go back to the Explorer tab and wait until its plots are on the page again (a tab draws
+    its content when it is shown)."""
+    page.locator(".bk-tab", has_text="Explorer").first.click()
+    page.wait_for_function(f"() => ['time_history', 'section', 'bifurcation']"
+                           f".every(n => ({BY_NAME})(n) != null)", timeout=60_000)
+    painted(page)
+
+
+def test_drag_45_degrees_intensity_map_and_units_switch_on_one_page(page, dashboard_server):
+    """Opened at Λ = 3.3, φ₂ = 0: a Λ slider drag runs once (fix 9); back at Λ = 3.3, the
+    paper's 45° gives chaos and its convention is in the URL (fix 3); an intensity map's pixels
+    follow its colour bar (fix 1); the units switch draws the time history in µm against ms
+    (fix 4)."""
+    open_dashboard(page, dashboard_server, "?lam=3.3&phi2=0")
+    _step_a_slider_drag_runs_once(page)
+    _type_lambda(page, 3.3)
+    _step_paper_45_degrees_gives_chaos_and_the_convention_is_in_the_url(page)
+    _step_intensity_map_pixels_follow_its_colour_bar(page)
+    _show_explorer(page)
+    _step_units_mode_draws_the_time_history_in_um_against_ms(page)
+
+
+def _boxes(page, selector: str) -> list[dict]:
+    loc = page.locator(selector)
+    out = []
+    for i in range(loc.count()):
+        el = loc.nth(i)
+        if el.is_visible():
+            bb = el.bounding_box()
+            if bb and bb["width"] > 0 and bb["height"] > 0:
+                out.append(bb)
+    return out
+
+
+def _overlap(a: dict, b: dict) -> bool:
+    return (a["x"] + 1 < b["x"] + b["width"] and b["x"] + 1 < a["x"] + a["width"]
+            and a["y"] + 1 < b["y"] + b["height"] and b["y"] + 1 < a["y"] + a["height"])
+
+
+def _step_sidebar_and_maps_controls_are_neither_clipped_nor_overlapping(page):
+    """Fix 6: in units mode no sidebar label, box or button overlaps another or leaves the sidebar;
+    the Maps tab's boxes are whole."""
+    page.locator(".ctl-rpm input").first.wait_for(state="visible", timeout=20_000)
+    page.evaluate("() => document.fonts.ready.then(() => true)")  # labels measured in their font
+    painted(page)
+    side = page.locator("#sidebar").first.bounding_box()
+    inputs = _boxes(page, "#sidebar input.bk-input") + _boxes(page, "#sidebar button.bk-btn")
+    labels = _boxes(page, "#sidebar div[style*='font-size:13px']")
+    assert len(inputs) > 20 and len(labels) > 10
+    for bb in inputs + labels:
+        assert side["x"] - 1 <= bb["x"] and bb["x"] + bb["width"] <= side["x"] + side["width"] + 1, bb
+    for i, a in enumerate(inputs):
+        for b in inputs[i + 1:] + labels:
+            assert not _overlap(a, b), (a, b)
+    page.locator(".bk-tab", has_text="Maps").first.click()
+    page.locator(".map-compute button").first.wait_for(timeout=20_000)
+    for css in (".map-x-num", ".map-y-num", ".map-x-start", ".map-transient", ".map-record"):
+        outer = page.locator(css).first.bounding_box()
+        inner = page.locator(f"{css} input").first.bounding_box()
+        assert inner["width"] >= 60 and inner["x"] + inner["width"] <= outer["x"] + outer["width"] + 1, css
+
+
+def _step_click_on_the_rpm_drag_torque_map_lands_there_and_the_url_follows(page):
     """Fix 2: units, C = 0.05 N·m, 1500 rpm: a map click sets exactly that rpm and C, URL at once."""
-    open_dashboard(page, dashboard_server, "?units=1&C=0.05&rpm=1500")
     compute_map(page, 5, 4)
     rpm, torque = 4700.0, 0.075  # grid: 800…6000 rpm, C/4…4C
     p = fig(page, "map_figure", rpm, torque)
@@ -133,40 +273,13 @@ def test_click_on_the_rpm_drag_torque_map_lands_there_and_the_url_follows(page, 
     wait_box(page, "drag_torque", torque)
 
 
-def test_paper_45_degrees_gives_chaos_and_the_convention_is_in_the_url(page, dashboard_server):
-    """Fix 3: typing the paper's 45° at Λ = 3.3 gives chaos; the core switch shows −135° and
-    goes into the URL; the φ₂ diagram runs over the paper's 0–360° of Figure 6."""
-    open_dashboard(page, dashboard_server, "?lam=3.3&phi2=0")
-    b = box(page, "phi2")
-    b.fill("45")
-    b.press("Enter")
-    page.locator(".rattle-badge[data-regime='D']").wait_for(timeout=20_000)
-    page.locator(".ctl-phases button", has_text="core").first.click()
-    wait_box(page, "phi2", -135.0)
-    page.wait_for_function("() => window.location.search.includes('phases=core')", timeout=10_000)
-    assert "phi2=-135" in page.url
-    page.locator(".rattle-badge[data-regime='D']").wait_for(timeout=20_000)
-    page.locator(".ctl-phases button", has_text="paper").first.click()
-    wait_box(page, "phi2", 45.0)
-    page.locator(".ctl-bif button", has_text="φ₂").first.click()
-    page.locator(".bif-status", has_text="φ₂ swept").first.wait_for(timeout=180_000)
-    page.wait_for_function(f"() => ({FIG})(['bifurcation', 0, 0]).xlabel.includes('φ₂')", timeout=60_000)
-    painted(page)
-    f = fig(page, "bifurcation")
-    assert (f["x0"], f["x1"]) == (pytest.approx(0.0, abs=1e-6), pytest.approx(360.0, abs=1e-6))
-    assert "paper" in f["xlabel"] and "Figure 6" in f["xlabel"]
-
-
-def test_units_mode_draws_the_time_history_in_um_against_ms(page, dashboard_server):
-    """Fix 4: switching the units on puts the time history in µm against ms, SI metrics beside."""
-    open_dashboard(page, dashboard_server)
-    page.locator(".units-switch").first.click()
-    page.wait_for_function(f"() => ({FIG})(['time_history', 0, 0]).ylabel.includes('µm')", timeout=20_000)
-    f = fig(page, "time_history")
-    assert f["xlabel"] == "t [ms]" and "rpm" in f["title"]
-    assert "1/s" in page.locator(".rattle-metrics table").first.inner_text()
-    # the units table is a view of its own, drawn on its own tick after the switch
-    page.locator(".units-table table.units-params").first.wait_for(state="visible", timeout=20_000)
+def test_units_mode_sidebar_maps_tab_and_a_click_on_the_rpm_drag_torque_map(page, dashboard_server):
+    """Opened in physical units at C = 0.05 N·m, 1500 rpm: the sidebar and the Maps tab's boxes
+    are neither clipped nor overlapping (fix 6); a click on the rpm–drag torque map sets that
+    rpm and C, and the URL follows (fix 2)."""
+    open_dashboard(page, dashboard_server, "?units=1&C=0.05&rpm=1500")
+    _step_sidebar_and_maps_controls_are_neither_clipped_nor_overlapping(page)
+    _step_click_on_the_rpm_drag_torque_map_lands_there_and_the_url_follows(page)
 
 
 def test_diagram_at_lambda_06_keeps_the_marker_on_a_full_range(page, dashboard_server):
@@ -187,47 +300,6 @@ def test_diagram_at_lambda_06_keeps_the_marker_on_a_full_range(page, dashboard_s
     b.fill("0.7")
     b.press("Enter")
     page.wait_for_function(f"() => Math.abs(({marker})() - 0.7) < 1e-9", timeout=20_000)
-
-
-def _boxes(page, selector: str) -> list[dict]:
-    loc = page.locator(selector)
-    out = []
-    for i in range(loc.count()):
-        el = loc.nth(i)
-        if el.is_visible():
-            bb = el.bounding_box()
-            if bb and bb["width"] > 0 and bb["height"] > 0:
-                out.append(bb)
-    return out
-
-
-def _overlap(a: dict, b: dict) -> bool:
-    return (a["x"] + 1 < b["x"] + b["width"] and b["x"] + 1 < a["x"] + a["width"]
-            and a["y"] + 1 < b["y"] + b["height"] and b["y"] + 1 < a["y"] + a["height"])
-
-
-def test_sidebar_and_maps_controls_are_neither_clipped_nor_overlapping(page, dashboard_server):
-    """Fix 6: in units mode no sidebar label, box or button overlaps another or leaves the sidebar;
-    the Maps tab's boxes are whole."""
-    open_dashboard(page, dashboard_server, "?units=1")
-    page.locator(".ctl-rpm input").first.wait_for(state="visible", timeout=20_000)
-    page.evaluate("() => document.fonts.ready.then(() => true)")  # labels measured in their font
-    painted(page)
-    side = page.locator("#sidebar").first.bounding_box()
-    inputs = _boxes(page, "#sidebar input.bk-input") + _boxes(page, "#sidebar button.bk-btn")
-    labels = _boxes(page, "#sidebar div[style*='font-size:13px']")
-    assert len(inputs) > 20 and len(labels) > 10
-    for bb in inputs + labels:
-        assert side["x"] - 1 <= bb["x"] and bb["x"] + bb["width"] <= side["x"] + side["width"] + 1, bb
-    for i, a in enumerate(inputs):
-        for b in inputs[i + 1:] + labels:
-            assert not _overlap(a, b), (a, b)
-    page.locator(".bk-tab", has_text="Maps").first.click()
-    page.locator(".map-compute button").first.wait_for(timeout=20_000)
-    for css in (".map-x-num", ".map-y-num", ".map-x-start", ".map-transient", ".map-record"):
-        outer = page.locator(css).first.bounding_box()
-        inner = page.locator(f"{css} input").first.bounding_box()
-        assert inner["width"] >= 60 and inner["x"] + inner["width"] <= outer["x"] + outer["width"] + 1, css
 
 
 def test_details_a_new_user_met(page, dashboard_server):
@@ -266,33 +338,6 @@ def test_details_a_new_user_met(page, dashboard_server):
     page.locator(".rattle-badge[data-regime='A'], .rattle-badge[data-regime='B']").first.wait_for(timeout=20_000)
     page.locator(".sound-hear", has_text="ilence").first.wait_for(timeout=20_000)
     assert "per second" not in hear.inner_text() and "e+" not in page.locator(".badge-detail").first.inner_text()
-
-
-def test_a_slider_drag_runs_once(page, dashboard_server):
-    """Fix 9: dragging the Λ slider through many positions runs one simulation, on release."""
-    open_dashboard(page, dashboard_server)  # the session has run its first simulation
-    dash = max(dashboard_module.LIVE, key=lambda d: d.session.key)
-    runs = dash.session.runs
-    h = page.locator(".ctl-lam .noUi-handle").first.bounding_box()
-    x, y = h["x"] + h["width"] / 2, h["y"] + h["height"] / 2
-    page.mouse.move(x, y)
-    handle = page.locator(".ctl-lam .noUi-handle").first.element_handle()
-    page.mouse.down()
-    for k in range(1, 13):
-        before = handle.get_attribute("aria-valuenow")
-        page.mouse.move(x + 6 * k, y, steps=2)
-        # as a hand drags: each position is on the slider before the next move
-        page.wait_for_function("([h, v]) => h.getAttribute('aria-valuenow') !== v",
-                               arg=[handle, before], timeout=20_000)
-    page.mouse.up()
-    page.wait_for_function("(el) => parseFloat(el.value) > 3.3", arg=box(page, "lam").element_handle(),
-                           timeout=20_000)
-    lam = box_value(page, "lam")
-    wait_for(lambda: dash.state.result is not None and abs(dash.state.result.params.lam - lam) < 1e-12,
-             timeout=30, what="the run at the released value")
-    page.wait_for_function(f"() => Math.abs(parseFloat(new URLSearchParams(window.location.search)"
-                           f".get('lam')) - {lam}) < 1e-12", timeout=20_000)
-    assert dash.session.runs == runs + 1
 
 
 def test_serve_prints_its_address_only_when_the_port_answers(browser, tmp_path):

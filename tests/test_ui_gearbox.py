@@ -1,7 +1,15 @@
-"""Browser test of the Gearbox tab: the sample's orders, a verdict with a variant computed in
-the background, its CSV downloaded, a bad upload refused with its line, the gearbox heard; an
-upload just under the 20 MB limit analysed and drawn, one just over it refused."""
+"""Browser test of the Gearbox tab, on one page: the sample's orders, a verdict with a variant
+computed in the background, its CSV downloaded, a bad upload refused with its line, the gearbox
+heard; an upload just under the 20 MB limit analysed and drawn, one just over it refused; a DAQ
+export with semicolons and decimal commas read, said how, and drawn.
+
+The checks share one page, in turn (a page load is the costly part of a browser test); each
+step starts from what the one before left, and the sample run-up the upload step ends on is
+what the DAQ export replaces.
+"""
 from __future__ import annotations
+
+from pathlib import Path
 
 import pytest
 from playwright.sync_api import expect
@@ -20,41 +28,6 @@ REGIME_POINTS = """() => {
   }
   return n;
 }"""
-
-
-def test_gearbox_tab_from_sample_to_verdict(page, dashboard_server, tmp_path, monkeypatch):
-    """Sample → orders; 4 speeds with a drag +50 % variant → onsets in the status, the regime
-    plot's 24 points and a CSV of 3 × 4 × 4 rows (both designs and B - A); a CSV with time going back → the message names the line; Listen → audio."""
-    monkeypatch.setenv("RATTLE_CACHE_DIR", str(tmp_path / "cache"))
-    errors = open_dashboard(page, dashboard_server)
-    page.locator(".bk-tab", has_text="Gearbox").first.click()
-    page.locator(".gb-sample button").first.click()
-    expect(page.locator(".gb-measure-status").first).to_contain_text("rpm bins", timeout=120_000)
-    for css, value in ((".gb-rpm-num", "4"), (".gb-transient", "60"), (".gb-record", "30")):
-        set_input(page, css, value)
-    page.locator(".gb-variant select").first.select_option(label="drag torque +/- %")
-    set_input(page, ".gb-drag-pct", "50")  # sent before the click below, on the same socket
-    page.locator(".gb-run button").first.click()
-    expect(page.locator(".gb-status").first).to_contain_text("Variant (drag torque +50 %)",
-                                                             timeout=300_000)
-    expect(page.locator(".gb-status").first).to_contain_text("5th idler")
-    # the regime plot drew every gear at every speed, baseline and variant (3 × 4 × 2)
-    page.wait_for_function(f"() => ({REGIME_POINTS})() == 24", timeout=120_000)
-    with page.expect_download(timeout=120_000) as dl:
-        page.locator(".gb-csv button").first.click()
-    text = open(dl.value.path(), encoding="utf-8").read().splitlines()
-    assert text[0].startswith("design,gear,rpm,regime,impacts_per_s,intensity,loudness_sone")
-    assert len(text) == 1 + 3 * 4 * 4
-    bad = tmp_path / "bad.csv"
-    bad.write_text("time_s,speed_rpm\n0,1000\n0.001,1000\n0.0005,1000\n" + "0.1,1000\n" * 50)
-    page.locator(".gb-measurement input[type=file]").first.set_input_files(str(bad))
-    expect(page.locator(".msg-gearbox-measure").first).to_contain_text("line 4", timeout=120_000)
-    page.locator(".gb-listen button").first.click()
-    expect(page.locator(".gb-listen-status").first).to_contain_text("sone", timeout=120_000)
-    assert page.locator(".gb-audio audio").first.get_attribute("src")
-    assert errors == []
-    assert dashboard_server["log"].tracebacks() == []
-
 
 UPLOADED_ORDERS = """() => {
   const ms = [...Bokeh.documents[0]._all_models.values()];
@@ -92,16 +65,58 @@ def runup_file(path, size: int) -> None:
     assert path.stat().st_size == size
 
 
-def test_an_upload_up_to_the_limit_draws_its_orders_and_one_over_is_refused(page, dashboard_server,
-                                                                            tmp_path):
+@pytest.mark.timeout(1800)
+def test_gearbox_tab_verdict_uploads_and_a_daq_export(page, dashboard_server, tmp_path,
+                                                      monkeypatch):
+    """On one page: the sample's verdict with a variant, its CSV, a bad upload's line and the
+    sound; a 19.9 MB upload drawn and a 20.1 MB one refused, the page still connected; a DAQ
+    export read as text and drawn. Each step's console and server stay free of errors."""
+    monkeypatch.setenv("RATTLE_CACHE_DIR", str(tmp_path / "cache"))
+    errors = open_dashboard(page, dashboard_server)
+    page.locator(".bk-tab", has_text="Gearbox").first.click()
+    _step_sample_to_verdict(page, dashboard_server, tmp_path, errors)
+    _step_upload_up_to_the_limit(page, dashboard_server, tmp_path, errors)
+    _step_semicolon_decimal_comma_upload(page, dashboard_server, errors)
+
+
+def _step_sample_to_verdict(page, dashboard_server, tmp_path, errors) -> None:
+    """Sample → orders; 4 speeds with a drag +50 % variant → onsets in the status, the regime
+    plot's 24 points and a CSV of 3 × 4 × 4 rows (both designs and B - A); a CSV with time going back → the message names the line; Listen → audio."""
+    page.locator(".gb-sample button").first.click()
+    expect(page.locator(".gb-measure-status").first).to_contain_text("rpm bins", timeout=120_000)
+    for css, value in ((".gb-rpm-num", "4"), (".gb-transient", "60"), (".gb-record", "30")):
+        set_input(page, css, value)
+    page.locator(".gb-variant select").first.select_option(label="drag torque +/- %")
+    set_input(page, ".gb-drag-pct", "50")  # sent before the click below, on the same socket
+    page.locator(".gb-run button").first.click()
+    expect(page.locator(".gb-status").first).to_contain_text("Variant (drag torque +50 %)",
+                                                             timeout=300_000)
+    expect(page.locator(".gb-status").first).to_contain_text("5th idler")
+    # the regime plot drew every gear at every speed, baseline and variant (3 × 4 × 2)
+    page.wait_for_function(f"() => ({REGIME_POINTS})() == 24", timeout=120_000)
+    with page.expect_download(timeout=120_000) as dl:
+        page.locator(".gb-csv button").first.click()
+    text = open(dl.value.path(), encoding="utf-8").read().splitlines()
+    assert text[0].startswith("design,gear,rpm,regime,impacts_per_s,intensity,loudness_sone")
+    assert len(text) == 1 + 3 * 4 * 4
+    bad = tmp_path / "bad.csv"
+    bad.write_text("time_s,speed_rpm\n0,1000\n0.001,1000\n0.0005,1000\n" + "0.1,1000\n" * 50)
+    page.locator(".gb-measurement input[type=file]").first.set_input_files(str(bad))
+    expect(page.locator(".msg-gearbox-measure").first).to_contain_text("line 4", timeout=120_000)
+    page.locator(".gb-listen button").first.click()
+    expect(page.locator(".gb-listen-status").first).to_contain_text("sone", timeout=120_000)
+    assert page.locator(".gb-audio audio").first.get_attribute("src")
+    assert errors == []
+    assert dashboard_server["log"].tracebacks() == []
+
+
+def _step_upload_up_to_the_limit(page, dashboard_server, tmp_path, errors) -> None:
     """A 19.9 MB measurement goes through the page's connection (over Bokeh's default message
     limit once base64-encoded), is analysed and its orders drawn; a 20.1 MB one is refused at
     once, naming the 20 MB limit, and the page keeps its connection."""
     near, over = tmp_path / "near.csv", tmp_path / "over.csv"
     runup_file(near, 19_900_000)
     runup_file(over, 20_100_000)
-    errors = open_dashboard(page, dashboard_server)
-    page.locator(".bk-tab", has_text="Gearbox").first.click()
     upload = page.locator(".gb-measurement input[type=file]").first
     upload.set_input_files(str(near))
     status = page.locator(".gb-measure-status").first
@@ -119,14 +134,12 @@ def test_an_upload_up_to_the_limit_draws_its_orders_and_one_over_is_refused(page
     assert dashboard_server["log"].tracebacks() == []
 
 
-def test_a_semicolon_decimal_comma_upload_shows_what_was_read_and_draws_its_orders(page,
-                                                                                   dashboard_server):
+def _step_semicolon_decimal_comma_upload(page, dashboard_server, errors) -> None:
     """A DAQ export (``;`` delimiter, decimal commas, a units row, German headers) uploaded
     through Chromium: the card says how it was read, as text, and the orders are drawn."""
-    from pathlib import Path
+    # the sample's orders have replaced the last upload's
+    page.wait_for_function(f"() => ({UPLOADED_ORDERS})() == 0", timeout=120_000)
     daq = Path(__file__).parent / "data" / "daq_semicolon_decimal_comma.csv"
-    errors = open_dashboard(page, dashboard_server)
-    page.locator(".bk-tab", has_text="Gearbox").first.click()
     page.locator(".gb-measurement input[type=file]").first.set_input_files(str(daq))
     detected = page.locator(".gb-detected").first
     expect(detected).to_contain_text("semicolon-separated", timeout=300_000)

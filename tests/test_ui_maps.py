@@ -1,7 +1,11 @@
-"""Browser test of the Maps tab: a small regime map computed in the background reaches the page.
+"""Browser tests of the Maps tab: a small regime map computed in the background reaches the
+page, and a click on a Λ × r map opened after the Explorer lands there; a shared link reopens
+its map, and the URL follows the page.
 
-The image data is read back from the page's Bokeh document (the ``map_image`` source), so the
-test passes only if the map travelled worker thread → session → websocket → browser.
+The image data is read back from the page's Bokeh document (the ``map_image`` source), so a
+check passes only if the map travelled worker thread → session → websocket → browser. The
+small map and the click share one page, opened with a Λ × r map (a page load is the costly
+part of a browser test); the link opens a page of its own.
 """
 from __future__ import annotations
 
@@ -29,9 +33,18 @@ MAP_SHAPE = """() => { const s = (""" + MAP_SOURCE + """)();
   return {size: img.length, codes: [...new Set(Array.from(img).filter(v => !isNaN(v)))]}; }"""
 
 
-def test_maps_tab_computes_a_small_map(page, dashboard_server):
+@pytest.mark.timeout(600)
+def test_maps_tab_computes_a_small_map_and_a_click_on_a_lambda_r_map_lands_there(
+        page, dashboard_server):
+    """?map_y_axis=r, the Explorer drawn: a 12 × 12 map arrives with the regimes' legend; then a
+    5 × 4 map, and a click on it sets exactly that Λ and r."""
+    errors = open_dashboard(page, dashboard_server, "?map_y_axis=r")
+    _step_maps_tab_computes_a_small_map(page, dashboard_server, errors)
+    _step_a_click_on_a_lambda_r_map_opened_from_the_explorer_lands_there(page, dashboard_server)
+
+
+def _step_maps_tab_computes_a_small_map(page, dashboard_server, errors) -> None:
     """Switch to Maps, compute a 12 × 12 map: the image arrives and the legend shows the regimes."""
-    errors = open_dashboard(page, dashboard_server)
     page.locator(".bk-tab", has_text="Maps").first.click()
     page.locator(".map-compute button").first.wait_for(timeout=20_000)
     for css, value in ((".map-x-num", "12"), (".map-y-num", "12"), (".map-transient", "40"),
@@ -50,6 +63,23 @@ def test_maps_tab_computes_a_small_map(page, dashboard_server):
         assert re.match(rf"^\s*{letter}\b", entries.nth(i).inner_text()), entries.nth(i).inner_text()
     expect(page.locator(".map-status").first).to_contain_text("12 × 12 = 144 points")
     assert errors == []
+    assert dashboard_server["log"].tracebacks() == []
+
+
+def _step_a_click_on_a_lambda_r_map_opened_from_the_explorer_lands_there(page,
+                                                                         dashboard_server) -> None:
+    """Explorer first (its plots drawn), then a Λ × r map: a click sets exactly that Λ and r.
+
+    The Explorer's plots share the axis names "x" and "y" with the map; Panel linked their
+    ranges, and the map's click stream then refused every click as out of its range.
+    """
+    from test_ui_fixes import compute_map, fig
+
+    compute_map(page, 5, 4)
+    p = fig(page, "map_figure", 3.125, 0.95)  # grid: Λ 0.5…4 in 5, r 0.3…0.95 in 4
+    page.mouse.click(p["sx"], p["sy"])
+    page.wait_for_function("() => window.location.search.includes('lam=3.125')", timeout=20_000)
+    assert "r=0.95" in page.url
     assert dashboard_server["log"].tracebacks() == []
 
 
@@ -80,21 +110,4 @@ def test_a_shared_link_reopens_its_map_and_the_url_follows_the_page(page, dashbo
     page.wait_for_function("() => window.location.search.includes('map_x_num=6')", timeout=20_000)
     page.locator(".bk-tab", has_text="Gearbox").first.click()
     page.wait_for_function("() => window.location.search.includes('tab=gearbox')", timeout=20_000)
-    assert dashboard_server["log"].tracebacks() == []
-
-
-def test_a_click_on_a_lambda_r_map_opened_from_the_explorer_lands_there(page, dashboard_server):
-    """Explorer first (its plots drawn), then a Λ × r map: a click sets exactly that Λ and r.
-
-    The Explorer's plots share the axis names "x" and "y" with the map; Panel linked their
-    ranges, and the map's click stream then refused every click as out of its range.
-    """
-    from test_ui_fixes import compute_map, fig
-
-    open_dashboard(page, dashboard_server, "?map_y_axis=r")
-    compute_map(page, 5, 4)
-    p = fig(page, "map_figure", 3.125, 0.95)  # grid: Λ 0.5…4 in 5, r 0.3…0.95 in 4
-    page.mouse.click(p["sx"], p["sy"])
-    page.wait_for_function("() => window.location.search.includes('lam=3.125')", timeout=20_000)
-    assert "r=0.95" in page.url
     assert dashboard_server["log"].tracebacks() == []

@@ -4,6 +4,11 @@ The drawn teeth are read from the page's own Bokeh models (``motion_teeth``, the
 ``th_cursor``, the clock on ``motion_frames``), so a test passes only if the browser's
 animation moved them; the canvas they are painted on is read back pixel by pixel. Impact times are computed here, independently of the page, by
 simulating the default page's parameters.
+
+The default page's checks share one page (a page load is the costly part of a browser test),
+in an order where none spoils the next: "Next impact" from the clock's first position, then
+Play and Pause at the default speed, then play at 1× between the teeth, then Loop from the
+window's end. The sound, in physical units, has a page of its own (``?units=true``).
 """
 from __future__ import annotations
 
@@ -100,10 +105,24 @@ def default_impacts() -> np.ndarray:
     return tr.impact_t[tr.impact_t <= end]
 
 
-def test_play_moves_the_gear_and_the_cursor_and_pause_stops_them(page, dashboard_server):
+def _step_next_impact(page, errors: list[str]) -> None:
+    """"Next impact" steps the clock and the cursor to the first, then the second impact of
+    the window (simulated here), each time with the drawn gear touching a flank."""
+    want = default_impacts()
+    assert len(want) >= 3
+    for expected in want[:2]:
+        press(page, "next")
+        page.wait_for_function(f"() => ({DRAWN})().t == {float(expected)!r}", timeout=20_000)
+        got = page.evaluate(DRAWN)
+        assert got["cursor"] == pytest.approx(expected, abs=1e-12)
+        assert min(abs(got["gap_active"]), abs(got["gap_reverse"])) <= 1e-9 * got["j"]
+        assert not got["playing"]
+    assert errors == []
+
+
+def _step_play_and_pause(page, errors: list[str]) -> None:
     """Play advances the clock, the drawn idle tooth and the time history's cursor at the
     chosen speed; Pause stops all three."""
-    errors = open_motion(page, dashboard_server)
     before = page.evaluate(DRAWN)
     assert before["playing"] is False
     press(page, "play")
@@ -132,26 +151,9 @@ def test_play_moves_the_gear_and_the_cursor_and_pause_stops_them(page, dashboard
     assert errors == []
 
 
-def test_next_impact_lands_on_the_impacts_with_the_gear_on_a_flank(page, dashboard_server):
-    """"Next impact" steps the clock and the cursor to the first, then the second impact of
-    the window (simulated here), each time with the drawn gear touching a flank."""
-    errors = open_motion(page, dashboard_server)
-    want = default_impacts()
-    assert len(want) >= 3
-    for expected in want[:2]:
-        press(page, "next")
-        page.wait_for_function(f"() => ({DRAWN})().t == {float(expected)!r}", timeout=20_000)
-        got = page.evaluate(DRAWN)
-        assert got["cursor"] == pytest.approx(expected, abs=1e-12)
-        assert min(abs(got["gap_active"]), abs(got["gap_reverse"])) <= 1e-9 * got["j"]
-        assert not got["playing"]
-    assert errors == []
-
-
-def test_the_drawn_gear_stays_between_the_teeth_while_playing(page, dashboard_server):
+def _step_the_gear_stays_between_the_teeth(page, errors: list[str]) -> None:
     """Every frame sent satisfies y ≤ x ≤ y + j, and the drawn gaps stay ≥ 0 over 60 frames
     of play at 1× (many impacts)."""
-    errors = open_motion(page, dashboard_server)
     a, r, n = page.evaluate(SENT_GAPS)
     assert n > 1000 and a >= -1e-9 and r >= -1e-9
     page.evaluate("() => { Bokeh.documents[0].get_model_by_name('motion_speed').value = 0; }")
@@ -162,6 +164,50 @@ def test_the_drawn_gear_stays_between_the_teeth_while_playing(page, dashboard_se
     assert a >= -1e-9 * j and r >= -1e-9 * j
     press(page, "pause")
     assert errors == []
+
+
+def _step_loop(page, errors: list[str]) -> None:
+    """With the clock at the window's end, "Next impact" goes to the first impact when Loop is
+    on and stays when it is off; Play at 1× from near the end wraps to the start with Loop on."""
+    want = default_impacts()
+    to_end = """() => { const f = Bokeh.documents[0].get_model_by_name('motion_frames');
+      f._rattle_motion.t = f.data.t[f.data.t.length - 1]; return f._rattle_motion.t; }"""
+    press(page, "pause")  # the clock stands still, wherever it is
+    page.wait_for_function(f"() => ({DRAWN})().t != null", timeout=20_000)
+    end = page.evaluate(to_end)
+    press(page, "next")
+    page.wait_for_function(f"() => ({DRAWN})().t == {float(want[0])!r}", timeout=20_000)
+    press(page, "loop")  # off
+    page.wait_for_function("() => !Bokeh.documents[0].get_model_by_name('motion_loop').active",
+                           timeout=20_000)
+    assert page.evaluate(to_end) == end
+    press(page, "next")
+    page.evaluate(AFTER_FRAMES, 5)
+    assert page.evaluate(DRAWN)["t"] == end
+    press(page, "loop")  # on again
+    page.wait_for_function("() => Bokeh.documents[0].get_model_by_name('motion_loop').active",
+                           timeout=20_000)
+    page.evaluate("""() => { const f = Bokeh.documents[0].get_model_by_name('motion_frames');
+      Bokeh.documents[0].get_model_by_name('motion_speed').value = 0;
+      f._rattle_motion.t = f.data.t[f.data.t.length - 1] - 0.5; }""")
+    press(page, "play")
+    page.wait_for_function(f"() => {{ const d = ({DRAWN})(); return d.playing && d.t < {end - 1.0!r}; }}",
+                           timeout=30_000)
+    press(page, "pause")
+    assert errors == []
+
+
+def test_the_gear_in_motion_on_the_default_page(page, dashboard_server):
+    """On the default page: "Next impact" steps the clock and the cursor to the window's first
+    two impacts with the gear on a flank; Play moves the clock, the gear and the cursor at the
+    default 0.1× and Pause stops them; at 1× the drawn gear stays between the teeth; with
+    Loop, "Next impact" and Play wrap from the window's end to its start, and without it,
+    "Next impact" stays at the end."""
+    errors = open_motion(page, dashboard_server)
+    _step_next_impact(page, errors)
+    _step_play_and_pause(page, errors)
+    _step_the_gear_stays_between_the_teeth(page, errors)
+    _step_loop(page, errors)
 
 
 AUDIO_STATE = """() => {
@@ -193,36 +239,4 @@ def test_the_rattle_sound_plays_in_step_in_physical_units(page, dashboard_server
     page.wait_for_function(f"() => !({AUDIO_STATE})().on", timeout=20_000)
     paused = page.evaluate("(el) => el.paused", page.locator(".sound-audio audio").first.element_handle())
     assert paused
-    assert errors == []
-
-
-def test_loop_wraps_next_impact_and_play_to_the_window_start(page, dashboard_server):
-    """With the clock at the window's end, "Next impact" goes to the first impact when Loop is
-    on and stays when it is off; Play at 1× from near the end wraps to the start with Loop on."""
-    errors = open_motion(page, dashboard_server)
-    want = default_impacts()
-    to_end = """() => { const f = Bokeh.documents[0].get_model_by_name('motion_frames');
-      f._rattle_motion.t = f.data.t[f.data.t.length - 1]; return f._rattle_motion.t; }"""
-    press(page, "pause")  # the clock starts at the window's start
-    page.wait_for_function(f"() => ({DRAWN})().t != null", timeout=20_000)
-    end = page.evaluate(to_end)
-    press(page, "next")
-    page.wait_for_function(f"() => ({DRAWN})().t == {float(want[0])!r}", timeout=20_000)
-    press(page, "loop")  # off
-    page.wait_for_function("() => !Bokeh.documents[0].get_model_by_name('motion_loop').active",
-                           timeout=20_000)
-    assert page.evaluate(to_end) == end
-    press(page, "next")
-    page.evaluate(AFTER_FRAMES, 5)
-    assert page.evaluate(DRAWN)["t"] == end
-    press(page, "loop")  # on again
-    page.wait_for_function("() => Bokeh.documents[0].get_model_by_name('motion_loop').active",
-                           timeout=20_000)
-    page.evaluate("""() => { const f = Bokeh.documents[0].get_model_by_name('motion_frames');
-      Bokeh.documents[0].get_model_by_name('motion_speed').value = 0;
-      f._rattle_motion.t = f.data.t[f.data.t.length - 1] - 0.5; }""")
-    press(page, "play")
-    page.wait_for_function(f"() => {{ const d = ({DRAWN})(); return d.playing && d.t < {end - 1.0!r}; }}",
-                           timeout=30_000)
-    press(page, "pause")
     assert errors == []

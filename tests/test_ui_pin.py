@@ -1,8 +1,10 @@
-"""Browser test of pinning a run: Figure 4 pinned as A, Figure 5 loaded as B, both drawn.
+"""Browser tests of pinning a run: a link's pin drawn and unpinned, then Figure 4 pinned as A
+and Figure 5 loaded as B, both drawn; a pin made in physical units drawn from its link.
 
 The caption is read from the page, the overlays from the page's Bokeh document (the time
 history's and the section's legends and data, the diagram's markers), and A's points are
-compared with the core's run of Figure 4 made here.
+compared with the core's run of Figure 4 made here. Unpinning and pinning share one page, the
+link's, whose live run is Figure 4 (a page load is the costly part of a browser test).
 """
 from __future__ import annotations
 
@@ -46,11 +48,36 @@ def legend(page, name: str) -> list:
     return page.evaluate(LEGEND, name) or []
 
 
-def test_fig4_pinned_then_fig5_shows_both(page, dashboard_server):
+@pytest.mark.timeout(1200)
+def test_a_linked_pin_unpinned_then_fig4_pinned_and_fig5_shown_beside_it(page, dashboard_server):
+    """Fig 4 opened with a pin (Λ = 2.5, H₂/H₁ = 0, φ₂ = 0) in its link: A is drawn and Unpin
+    clears it; then Fig 4 pinned and the Fig 5 preset draw A beside B, and the URL carries the
+    new pin."""
+    errors = open_dashboard(page, dashboard_server, FIG4 + "&pin=lam%3A2.5%3Bh2%3A0%3Bphi2%3A0")
+    _step_unpin_clears_a_from_the_page(page)
+    _step_fig4_pinned_then_fig5_shows_both(page, dashboard_server, errors)
+
+
+def _step_unpin_clears_a_from_the_page(page) -> None:
+    """A link holding a pin opens A beside B; Unpin clears the caption's A, the overlays and
+    the pin in the URL."""
+    caption = page.locator(".pin-caption").first
+    expect(caption).to_contain_text("A: Λ = 2.5, r = 0.65, j = 8, H₂/H₁ = 0, φ₂ = 0°",
+                                    timeout=30_000)
+    page.wait_for_function(f"""() => ({LEGEND})('time_history').some(
+        i => i[0] === 'A (pinned): gear x(t)' && i[1] && i[2] > 100)""", timeout=30_000)
+    page.locator(".unpin-run button").first.click()
+    expect(caption).to_contain_text("Pin this run", timeout=20_000)
+    page.wait_for_function(f"""() => ({LEGEND})('time_history').every(
+        i => i[0] !== 'A (pinned): gear x(t)' || (!i[1] && i[2] == 0))""", timeout=30_000)
+    page.wait_for_function("() => new URLSearchParams(window.location.search).get('pin') === ''",
+                           timeout=20_000)
+
+
+def _step_fig4_pinned_then_fig5_shows_both(page, dashboard_server, errors) -> None:
     """Fig 4 pinned, then the Fig 5 preset: the caption names A (φ₂ = 45°, chaotic) and B
     (φ₂ = 90°), the time history and the section draw A beside B with legend entries A and B,
     the diagram marks both, and the URL carries the pin."""
-    errors = open_dashboard(page, dashboard_server, FIG4)
     caption = page.locator(".pin-caption").first
     expect(caption).to_contain_text("Pin this run", timeout=20_000)
     page.locator(".pin-run button").first.click()
@@ -83,23 +110,6 @@ def test_fig4_pinned_then_fig5_shows_both(page, dashboard_server):
     pin = parse_pin(parse_qs(urlparse(page.url).query)["pin"][0])
     assert (pin["lam"], pin["h2"], pin["phi2"], pin["phases"]) == (3.3, 0.25, 45, "paper")
     assert errors == [] and dashboard_server["log"].tracebacks() == []
-
-
-def test_unpin_clears_a_from_the_page(page, dashboard_server):
-    """A link holding a pin opens A beside B; Unpin clears the caption's A, the overlays and
-    the pin in the URL."""
-    open_dashboard(page, dashboard_server, FIG4 + "&pin=lam%3A2.5%3Bh2%3A0%3Bphi2%3A0")
-    caption = page.locator(".pin-caption").first
-    expect(caption).to_contain_text("A: Λ = 2.5, r = 0.65, j = 8, H₂/H₁ = 0, φ₂ = 0°",
-                                    timeout=30_000)
-    page.wait_for_function(f"""() => ({LEGEND})('time_history').some(
-        i => i[0] === 'A (pinned): gear x(t)' && i[1] && i[2] > 100)""", timeout=30_000)
-    page.locator(".unpin-run button").first.click()
-    expect(caption).to_contain_text("Pin this run", timeout=20_000)
-    page.wait_for_function(f"""() => ({LEGEND})('time_history').every(
-        i => i[0] !== 'A (pinned): gear x(t)' || (!i[1] && i[2] == 0))""", timeout=30_000)
-    page.wait_for_function("() => new URLSearchParams(window.location.search).get('pin') === ''",
-                           timeout=20_000)
 
 
 def test_a_physical_pin_from_a_link_is_drawn_in_ms(page, dashboard_server):

@@ -2,6 +2,11 @@
 
 The figure's ranges and the page's URL are read from the browser (the page's Bokeh document),
 and compared with the section's points computed here by the core for the same parameters.
+
+The checks share one page (a page load is the costly part of a browser test), opened at
+``?lam=1.2&h2=0``: the Reset tool, then the framing of new runs (Fig 7, then H₂/H₁ = 5), then,
+with the values the next check starts from typed in, a click on the map at Λ = 2.5, H₂/H₁ = 0,
+and last the twin, on Fig 7 again (its preset also puts the initial state back).
 """
 from __future__ import annotations
 
@@ -41,28 +46,9 @@ def paper(lam: float, h2: float, phi2: float = 0.0, periods: int = 200) -> tuple
     return tr.strobe_x, tr.strobe_v
 
 
-def test_the_poincare_map_frames_each_new_run(page, dashboard_server):
-    """Fig 7 from ?lam=1.2&h2=0, then H₂/H₁ = 5: each time the axes hold every point, tightly."""
-    open_dashboard(page, dashboard_server, "?lam=1.2&h2=0")
-    page.wait_for_function(f"() => ({SECTION_RANGE})() != null", timeout=60_000)
-    page.locator(".preset-Fig7 button").first.click()
-    x, y = paper(3.3, 0.25, 45.0, periods=5000)
-    r = wait_framed(page, x, y)
-    assert r[1] - r[0] > 3.0  # the strange attractor, not the first run's 1-wide box
-    wait_box(page, "h2", 0.25)
-    b = box(page, "h2")
-    b.fill("5")
-    b.press("Enter")
-    x, y = paper(3.3, 5.0, 45.0, periods=5000)
-    assert y.max() < -10  # the points lie near ẋ ≈ −13.9, far outside the last view
-    wait_framed(page, x, y)
-
-
-def test_reset_returns_to_the_current_runs_frame(page, dashboard_server):
+def _step_reset_returns_to_the_current_runs_frame(page) -> None:
     """After a run changes the frame, a wheel zoom and the Reset tool come back to the new frame,
     not to the page's first ranges; the next run frames its own data again."""
-    open_dashboard(page, dashboard_server, "?lam=1.2&h2=0")
-    page.wait_for_function(f"() => ({SECTION_RANGE})() != null", timeout=60_000)
     b = box(page, "lam")
     b.fill("2.5")
     b.press("Enter")
@@ -85,14 +71,29 @@ def test_reset_returns_to_the_current_runs_frame(page, dashboard_server):
     wait_framed(page, x, y)
 
 
-def test_a_click_between_the_teeth_starts_the_gear_there(page, dashboard_server):
-    """At ?lam=2.5&h2=0, a click on the map sets x₀ and ẋ₀ to the clicked point, in the URL too."""
-    open_dashboard(page, dashboard_server, "?lam=2.5&h2=0")
+def _step_frames_each_new_run(page) -> None:
+    """Fig 7 from Λ = 1.2, H₂/H₁ = 0, then H₂/H₁ = 5: each time the axes hold every point, tightly."""
+    page.locator(".preset-Fig7 button").first.click()
+    x, y = paper(3.3, 0.25, 45.0, periods=5000)
+    r = wait_framed(page, x, y)
+    assert r[1] - r[0] > 3.0  # the strange attractor, not the first run's 1-wide box
+    wait_box(page, "h2", 0.25)
+    b = box(page, "h2")
+    b.fill("5")
+    b.press("Enter")
+    x, y = paper(3.3, 5.0, 45.0, periods=5000)
+    assert y.max() < -10  # the points lie near ẋ ≈ −13.9, far outside the last view
+    wait_framed(page, x, y)
+
+
+def _step_a_click_between_the_teeth_starts_the_gear_there(page) -> None:
+    """At Λ = 2.5, H₂/H₁ = 0, a click on the map sets x₀ and ẋ₀ to the clicked point, in the URL too."""
     x, y = paper(2.5, 0.0)
     r = wait_framed(page, x, y)
     page.locator(".section").first.scroll_into_view_if_needed()
     gx, gy = r[0] + 0.3 * (r[1] - r[0]), r[2] + 0.7 * (r[3] - r[2])
     assert 0.0 < gx < 8.0  # between the teeth: y(0) = 0 and y(0) + j = 8
+    assert "x0" not in parse_qs(urlparse(page.url).query), page.url  # not set before the click
     p = fig(page, "section", gx, gy)
     page.mouse.click(p["sx"], p["sy"])
     page.wait_for_function("() => /[?&]x0=[-0-9]/.test(window.location.search)", timeout=20_000)
@@ -102,10 +103,9 @@ def test_a_click_between_the_teeth_starts_the_gear_there(page, dashboard_server)
     wait_box(page, "x0", float(q["x0"][0]), tol=1e-6)
 
 
-def test_a_twin_started_next_to_the_first_gear_drifts_away_on_chaos(page, dashboard_server):
+def _step_a_twin_drifts_away_on_chaos(page) -> None:
     """Fig 7, the twin turned on once the page is drawn (its plots join the page only then):
     the page draws the separation, which grows from the 1e-6 nudge by more than a thousandfold."""
-    open_dashboard(page, dashboard_server, "?lam=3.3&h2=0.25&phi2=45&periods=5000")
     assert page.evaluate("() => Bokeh.documents[0].get_model_by_name('twin_gap') == null")
     page.locator(".ctl-twin input[type=checkbox]").first.check()
     page.wait_for_function("() => /[?&]twin=(true|1)/.test(window.location.search)", timeout=60_000)
@@ -116,3 +116,54 @@ def test_a_twin_started_next_to_the_first_gear_drifts_away_on_chaos(page, dashbo
                            timeout=60_000)
     y = np.array(page.evaluate(gap))
     assert y[0] == pytest.approx(1e-6, rel=1e-6) and np.median(y[-100:]) > 1e3 * y[0]
+
+
+#: x₀ is unset (the middle of the backlash): the URL gives it no value.
+X0_DEFAULT = "() => /[?&]x0=(&|$)/.test(window.location.search)"
+
+
+def _type(page, name: str, value: float) -> None:
+    """Type ``value`` into the entry box of ``name`` and wait until the page shows it."""
+    b = box(page, name)
+    b.fill(f"{value:g}")
+    b.press("Enter")
+    wait_box(page, name, value)
+
+
+def _set_for_the_click(page) -> None:
+    """Type in the values the click is checked at: N = 200 (in the Advanced card), H₂/H₁ = 0,
+    Λ = 2.5, the page's other values as at ``?lam=2.5&h2=0``."""
+    if not box(page, "periods").is_visible():
+        page.locator(".advanced .card-header").first.click()
+        box(page, "periods").wait_for(state="visible", timeout=20_000)
+    for name, value in (("periods", 200), ("h2", 0.0), ("lam", 2.5)):
+        _type(page, name, value)
+    wait_box(page, "phi2", 45.0)
+    page.wait_for_function(X0_DEFAULT, timeout=20_000)
+    wait_box(page, "v0", 0.0)
+
+
+def _fig7_again(page) -> None:
+    """The Fig 7 preset: the page's values as at ``?lam=3.3&h2=0.25&phi2=45&periods=5000``
+    (the initial state back to its default), its section framed."""
+    page.locator(".preset-Fig7 button").first.click()
+    for name, value in (("lam", 3.3), ("h2", 0.25), ("phi2", 45.0), ("periods", 5000), ("v0", 0.0)):
+        wait_box(page, name, value)
+    page.wait_for_function(X0_DEFAULT, timeout=20_000)
+    wait_framed(page, *paper(3.3, 0.25, 45.0, periods=5000))
+
+
+@pytest.mark.timeout(1200)
+def test_the_poincare_map_frames_each_run_resets_and_starts_the_gear_at_a_click(page, dashboard_server):
+    """From ?lam=1.2&h2=0: after a run changes the frame, a wheel zoom and Reset come back to
+    the new frame; Fig 7, then H₂/H₁ = 5, are each framed tightly; at Λ = 2.5, H₂/H₁ = 0, a
+    click on the map sets x₀ and ẋ₀ there, in the URL too; on Fig 7 a twin started next to the
+    gear drifts away by more than a thousandfold."""
+    open_dashboard(page, dashboard_server, "?lam=1.2&h2=0")
+    page.wait_for_function(f"() => ({SECTION_RANGE})() != null", timeout=60_000)
+    _step_reset_returns_to_the_current_runs_frame(page)
+    _step_frames_each_new_run(page)
+    _set_for_the_click(page)
+    _step_a_click_between_the_teeth_starts_the_gear_there(page)
+    _fig7_again(page)
+    _step_a_twin_drifts_away_on_chaos(page)
