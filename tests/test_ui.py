@@ -3,6 +3,18 @@
 The page's state is read back from the browser itself: the values shown in the controls'
 entry boxes, the alerts beside them, and the data the plots hold (``Bokeh.documents``), so a
 test passes only if the change travelled server → websocket → page.
+
+What the file shows: the explorer loads with no console error, exports its impacts as CSV,
+refuses an out-of-range Λ, follows a click on the bifurcation diagram and the Λ slider, keeps
+the time history's zoom through a change, refines a zoomed diagram, and requests nothing from
+any other host; a link restores its values and a preset replaces them; garbage in a link is
+named beside its control; three sessions keep their own state. Checks that need no page of
+their own share one, step after step (one page for these checks: a page load is the costly
+part of a browser test), in an order that leaves each step the state it reads; a value an
+earlier step changed is typed back, and waited for, where a later one needs it.
+
+This module also holds the helpers the other browser-test files use (``open_dashboard``,
+``READY``, ``box``, ``wait_box``, ...).
 """
 from __future__ import annotations
 
@@ -132,9 +144,48 @@ def set_input(page, css: str, value: str) -> None:
     b.press("Enter")
 
 
-def test_page_loads_without_console_errors(page, dashboard_server):
+#: The time history's x and y ranges.
+TH_RANGE = """() => { const m = Bokeh.documents[0].get_model_by_name('time_history');
+  return [m.x_range.start, m.x_range.end, m.y_range.start, m.y_range.end]; }"""
+
+#: The link of the page the explorer's checks share: Λ, r and j at their defaults, H₂/H₁ = 0
+#: (regime E, one impact on each flank per period) and 50 periods recorded.
+EXPLORER = "?lam=3.3&h2=0&periods=50"
+
+#: A link naming six values, Λ, H₂/H₁ and φ₂ all unlike those of the Fig 8 preset.
+LINK = "?lam=2.2&r=0.5&j=6&h2=0.1&phi2=30&strobe=45"
+
+
+def redrawn(page, before: float, timeout: float = 60_000) -> None:
+    """Wait until x(t) differs from the one whose checksum was ``before``."""
+    page.wait_for_function(f"() => Math.abs(({CHECKSUM})() - {before!r}) > 1e-6", timeout=timeout)
+
+
+#: Whether the Λ slider stands at ``want``: the server moves it after the box's value has come
+#: back, sometimes after the redraw too.
+LAM_SLIDER_AT = """(want) => {
+  const models = [...Bokeh.documents[0].all_models];
+  const field = models.find(m => Array.isArray(m.css_classes) && m.css_classes.includes('ctl-lam'));
+  const within = (m) => m == null ? [] : [m, ...(m.children || []).flatMap(within)];
+  const slider = within(field).find(m => 'value_throttled' in m && 'start' in m && 'end' in m);
+  return slider != null && Math.abs(slider.value - want) < 1e-9;
+}"""
+
+
+def type_lam(page, value: float) -> None:
+    """Type Λ = ``value`` into its box and wait until the page shows it, in the box and on the
+    slider, and has redrawn x(t)."""
+    before = page.evaluate(CHECKSUM)
+    b = box(page, "lam")
+    b.fill(f"{value:g}")
+    b.press("Enter")
+    wait_box(page, "lam", value, timeout=60_000)
+    redrawn(page, before)
+    page.wait_for_function(LAM_SLIDER_AT, arg=value, timeout=60_000)
+
+
+def _step_page_loads_without_console_errors(page, errors: list[str]) -> None:
     """The dashboard loads, draws its views and badge, with no browser console error."""
-    errors = open_dashboard(page, dashboard_server)
     badge = page.locator(".rattle-badge")
     badge.wait_for(timeout=30_000)
     assert re.match(r"^[A-EPQ]$", badge.get_attribute("data-regime"))
@@ -148,26 +199,43 @@ def test_page_loads_without_console_errors(page, dashboard_server):
     assert errors == []
 
 
-def test_lambda_slider_changes_time_history(page, dashboard_server):
-    """Focusing the Λ slider handle and pressing ArrowRight moves Λ and redraws x(t)."""
-    open_dashboard(page, dashboard_server)
+def _step_impacts_download_as_csv(page) -> None:
+    """The export button downloads the current impacts as CSV, one row per impact."""
+    wait_box(page, "h2", 0.0)
+    with page.expect_download(timeout=60_000) as info:
+        page.locator(".download-csv button, .download-csv a").first.click()
+    text = open(info.value.path(), encoding="utf-8").read().splitlines()
+    assert text[0] == "t,phase,impulse,flank,w"
+    assert len(text) - 1 == 100  # regime E: one impact per flank per period, 50 periods
+    assert info.value.suggested_filename.startswith("rattle_impacts_lam3.3_r0.65_j8_h2-0_")
+
+
+def _step_out_of_range_typed_value_is_rejected_beside_the_control(page, server) -> None:
+    """Typing Λ = −5 shows a message beside Λ, keeps Λ = 3.3 and leaves the time history as it was."""
     before = page.evaluate(CHECKSUM)
-    handle = page.locator(".ctl-lam .noUi-handle").first
-    handle.focus()
-    for _ in range(5):
-        page.keyboard.press("ArrowRight")
-    wait_box(page, "lam", 3.35, tol=1e-6)
-    page.wait_for_function(f"() => Math.abs(({CHECKSUM})() - {before!r}) > 1e-6", timeout=20_000)
-    assert "lam=3.35" in page.url
+    b = box(page, "lam")
+    b.fill("-5")
+    b.press("Enter")
+    page.locator(".msg-lam").first.wait_for(state="visible", timeout=10_000)
+    assert "outside the allowed range" in message(page, "lam")
+    wait_box(page, "lam", 3.3)
+    assert page.evaluate(CHECKSUM) == pytest.approx(before)
+    assert server["log"].tracebacks() == []
 
 
-TH_RANGE = """() => { const m = Bokeh.documents[0].get_model_by_name('time_history');
-  return [m.x_range.start, m.x_range.end, m.y_range.start, m.y_range.end]; }"""
+def _step_click_on_bifurcation_diagram_sets_lambda(page) -> None:
+    """Clicking the bifurcation diagram at some Λ moves the Λ control (and the views) there."""
+    wait_bif(page)
+    target = page.evaluate(BIF_POINT, 0.3)
+    assert abs(target["value"] - 3.3) > 0.2
+    before = page.evaluate(CHECKSUM)
+    page.mouse.click(target["x"], target["y"])
+    wait_box(page, "lam", round(target["value"], 4), tol=0.02, timeout=60_000)
+    redrawn(page, before)
 
 
-def test_time_history_zoom_survives_a_parameter_change(page, dashboard_server):
+def _step_time_history_zoom_survives_a_parameter_change(page) -> None:
     """After the user zooms the time history, a Λ change redraws x(t) inside the same zoom."""
-    open_dashboard(page, dashboard_server)
     painted(page)
     m = page.evaluate("""() => { const v = Bokeh.index.find_one(
         Bokeh.documents[0].get_model_by_name('time_history'));
@@ -186,41 +254,25 @@ def test_time_history_zoom_survives_a_parameter_change(page, dashboard_server):
     b = box(page, "lam")
     b.fill("3.1")
     b.press("Enter")
-    page.wait_for_function(f"() => Math.abs(({CHECKSUM})() - {before!r}) > 1e-6", timeout=20_000)
+    redrawn(page, before)
     painted(page)  # a data range would re-fit itself on this paint
     assert page.evaluate(TH_RANGE) == pytest.approx(zoomed)
 
 
-def test_preset_loads_its_parameters(page, dashboard_server):
-    """One click on the Fig 8 preset sets Λ = 3.3, H₂/H₁ = 0.25 and the paper's φ₂ = 90°."""
-    open_dashboard(page, dashboard_server, "?lam=1.5&h2=0.1&phi2=10")
-    wait_box(page, "lam", 1.5)
+def _step_lambda_slider_changes_time_history(page) -> None:
+    """Focusing the Λ slider handle and pressing ArrowRight moves Λ and redraws x(t)."""
     before = page.evaluate(CHECKSUM)
-    page.locator(".preset-Fig8 button").first.click()
-    wait_box(page, "lam", 3.3)
-    wait_box(page, "h2", 0.25)
-    wait_box(page, "phi2", 90.0)
-    page.wait_for_function(f"() => Math.abs(({CHECKSUM})() - {before!r}) > 1e-6", timeout=20_000)
-    page.locator(".rattle-badge[data-regime='E']").wait_for(timeout=20_000)
-    page.wait_for_function("() => window.location.search.includes('phi2=90')", timeout=10_000)
-    assert "phases=core" not in page.url
+    handle = page.locator(".ctl-lam .noUi-handle").first
+    handle.focus()
+    for _ in range(5):
+        page.keyboard.press("ArrowRight")
+    wait_box(page, "lam", 3.35, tol=1e-6, timeout=60_000)
+    redrawn(page, before)
+    assert "lam=3.35" in page.url
 
 
-def test_click_on_bifurcation_diagram_sets_lambda(page, dashboard_server):
-    """Clicking the bifurcation diagram at some Λ moves the Λ control (and the views) there."""
-    open_dashboard(page, dashboard_server)
-    wait_bif(page)
-    target = page.evaluate(BIF_POINT, 0.3)
-    assert abs(target["value"] - 3.3) > 0.2
-    before = page.evaluate(CHECKSUM)
-    page.mouse.click(target["x"], target["y"])
-    wait_box(page, "lam", round(target["value"], 4), tol=0.02)
-    page.wait_for_function(f"() => Math.abs(({CHECKSUM})() - {before!r}) > 1e-6", timeout=20_000)
-
-
-def test_zooming_the_bifurcation_diagram_refines_the_visible_region(page, dashboard_server):
+def _step_zooming_the_bifurcation_diagram_refines_the_visible_region(page) -> None:
     """Wheel-zooming into the Ĩ–Λ diagram triggers a finer background sweep of the visible Λ range."""
-    open_dashboard(page, dashboard_server)
     wait_bif(page)
     status = page.locator(".bif-status div").first
     assert "refined" not in status.inner_text()
@@ -231,9 +283,41 @@ def test_zooming_the_bifurcation_diagram_refines_the_visible_region(page, dashbo
     page.locator(".bif-status div", has_text="refined").first.wait_for(timeout=120_000)
 
 
-def test_url_parameters_restore_the_view(page, dashboard_server):
+def _step_no_request_leaves_localhost(page, urls: list[str]) -> None:
+    """Loading and using the dashboard requests nothing from any host but the local server."""
+    page.locator(".preset-Fig7 button").first.click()
+    wait_box(page, "lam", 3.3, timeout=60_000)
+    page.locator(".rattle-badge[data-regime='D']").wait_for(timeout=120_000)  # Fig 7 drawn
+    wait_bif(page)
+    painted(page)
+    hosts = {urlparse(u).hostname for u in urls if not u.startswith(("data:", "blob:"))}
+    assert len(urls) > 5
+    assert hosts <= {"localhost", "127.0.0.1"}, hosts
+
+
+@pytest.mark.timeout(900)
+def test_explorer_draws_exports_and_follows_its_controls(page, dashboard_server):
+    """On one page, in turn: the dashboard loads with every view and no console error; it exports
+    its impacts as CSV; it refuses an out-of-range Λ beside the control; a click on the
+    bifurcation diagram sets Λ; the time history keeps its zoom through a Λ change; the Λ slider
+    moves Λ (from 3.3, typed back); zooming the diagram refines it; and nothing the page requests,
+    from its load to a preset's redraw, leaves the local server."""
+    urls: list[str] = []
+    page.on("request", lambda r: urls.append(r.url))
+    errors = open_dashboard(page, dashboard_server, EXPLORER)
+    _step_page_loads_without_console_errors(page, errors)
+    _step_impacts_download_as_csv(page)
+    _step_out_of_range_typed_value_is_rejected_beside_the_control(page, dashboard_server)
+    _step_click_on_bifurcation_diagram_sets_lambda(page)
+    _step_time_history_zoom_survives_a_parameter_change(page)
+    type_lam(page, 3.3)
+    _step_lambda_slider_changes_time_history(page)
+    _step_zooming_the_bifurcation_diagram_refines_the_visible_region(page)
+    _step_no_request_leaves_localhost(page, urls)
+
+
+def _step_url_parameters_restore_the_view(page) -> None:
     """A link with parameters opens with exactly those values in the controls."""
-    open_dashboard(page, dashboard_server, "?lam=2.2&r=0.5&j=6&h2=0.1&phi2=30&strobe=45")
     wait_box(page, "lam", 2.2)
     wait_box(page, "r", 0.5)
     wait_box(page, "j", 6.0)
@@ -241,6 +325,27 @@ def test_url_parameters_restore_the_view(page, dashboard_server):
     wait_box(page, "phi2", 30.0)
     wait_box(page, "strobe", 45.0)
     assert page.locator(".msg-global").first.is_hidden()
+
+
+def _step_preset_loads_its_parameters(page) -> None:
+    """One click on the Fig 8 preset sets Λ = 3.3, H₂/H₁ = 0.25 and the paper's φ₂ = 90°."""
+    before = page.evaluate(CHECKSUM)
+    page.locator(".preset-Fig8 button").first.click()
+    wait_box(page, "lam", 3.3, timeout=60_000)
+    wait_box(page, "h2", 0.25, timeout=60_000)
+    wait_box(page, "phi2", 90.0, timeout=60_000)
+    redrawn(page, before)
+    page.locator(".rattle-badge[data-regime='E']").wait_for(timeout=60_000)
+    page.wait_for_function("() => window.location.search.includes('phi2=90')", timeout=10_000)
+    assert "phases=core" not in page.url
+
+
+def test_link_restores_its_values_and_a_preset_replaces_them(page, dashboard_server):
+    """A link's values are in the controls when its page opens; one click on the Fig 8 preset
+    then sets the figure's Λ, H₂/H₁ and φ₂ in place of the link's."""
+    open_dashboard(page, dashboard_server, LINK)
+    _step_url_parameters_restore_the_view(page)
+    _step_preset_loads_its_parameters(page)
 
 
 def test_garbage_url_parameters_show_messages_and_keep_defaults(page, dashboard_server):
@@ -260,47 +365,6 @@ def test_garbage_url_parameters_show_messages_and_keep_defaults(page, dashboard_
     assert dashboard_server["log"].tracebacks() == []
 
 
-def test_out_of_range_typed_value_is_rejected_beside_the_control(page, dashboard_server):
-    """Typing Λ = −5 shows a message beside Λ, keeps Λ = 3.3 and leaves the time history as it was."""
-    open_dashboard(page, dashboard_server)
-    before = page.evaluate(CHECKSUM)
-    b = box(page, "lam")
-    b.fill("-5")
-    b.press("Enter")
-    page.locator(".msg-lam").first.wait_for(state="visible", timeout=10_000)
-    assert "outside the allowed range" in message(page, "lam")
-    wait_box(page, "lam", 3.3)
-    assert page.evaluate(CHECKSUM) == pytest.approx(before)
-    assert dashboard_server["log"].tracebacks() == []
-
-
-def test_impacts_download_as_csv(page, dashboard_server):
-    """The export button downloads the current impacts as CSV, one row per impact."""
-    open_dashboard(page, dashboard_server, "?lam=3.3&h2=0&periods=50")
-    wait_box(page, "h2", 0.0)
-    with page.expect_download(timeout=30_000) as info:
-        page.locator(".download-csv button, .download-csv a").first.click()
-    text = open(info.value.path(), encoding="utf-8").read().splitlines()
-    assert text[0] == "t,phase,impulse,flank,w"
-    assert len(text) - 1 == 100  # regime E: one impact per flank per period, 50 periods
-    assert info.value.suggested_filename.startswith("rattle_impacts_lam3.3_r0.65_j8_h2-0_")
-
-
-def test_no_request_leaves_localhost(page, dashboard_server):
-    """Loading and using the dashboard requests nothing from any host but the local server."""
-    urls: list[str] = []
-    page.on("request", lambda r: urls.append(r.url))
-    open_dashboard(page, dashboard_server)
-    page.locator(".preset-Fig7 button").first.click()
-    wait_box(page, "lam", 3.3)
-    page.locator(".rattle-badge[data-regime='D']").wait_for(timeout=30_000)  # Fig 7 drawn
-    wait_bif(page)
-    painted(page)
-    hosts = {urlparse(u).hostname for u in urls if not u.startswith(("data:", "blob:"))}
-    assert len(urls) > 5
-    assert hosts <= {"localhost", "127.0.0.1"}, hosts
-
-
 def test_three_sessions_keep_their_own_state(browser, dashboard_server):
     """Three concurrent sessions changed differently each keep their own parameters and plots."""
     contexts = [patient_context(browser) for _ in range(3)]
@@ -313,10 +377,10 @@ def test_three_sessions_keep_their_own_state(browser, dashboard_server):
         b = box(pages[1], "lam")
         b.fill("2")
         b.press("Enter")
-        wait_box(pages[0], "phi2", 90.0)
-        wait_box(pages[1], "lam", 2.0)
+        wait_box(pages[0], "phi2", 90.0, timeout=60_000)
+        wait_box(pages[1], "lam", 2.0, timeout=60_000)
         for p, old in zip(pages[:2], first):  # both changed sessions redrew
-            p.wait_for_function(f"() => Math.abs(({CHECKSUM})() - {old!r}) > 1e-6", timeout=20_000)
+            redrawn(p, old)
         sums = [p.evaluate(CHECKSUM) for p in pages]
         assert box_value(pages[0], "lam") == pytest.approx(3.3)
         assert box_value(pages[1], "phi2") == pytest.approx(45.0)
