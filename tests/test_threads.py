@@ -5,14 +5,17 @@
   back in); it is reentrant, and a timed-out wait leaves no trace.
 * A dashboard's build lets go of the lock between its views: another session's redraw,
   waiting for the lock, gets it before the page is finished.
+* The app's configuration lets a waiting thread take the interpreter sooner than CPython's
+  default (``benchmarks/bench_isolation.py`` measures what that does to a redraw).
 """
 from __future__ import annotations
 
+import sys
 import threading
 
 import pytest
 
-from app.work.threads import FairRLock, HV_LOCK, unlocked
+from app.work.threads import SWITCH_INTERVAL_S, FairRLock, HV_LOCK, unlocked
 from conftest import wait_for
 
 
@@ -137,3 +140,18 @@ def test_views_built_without_the_lock_make_no_holoviews_object(dash, monkeypatch
         assert made == [], (view.__name__, made)
     dashboard_module.SectionView(state=dash.state)
     assert made  # a view with HoloViews plots is seen to make them
+
+
+def test_the_app_hands_the_interpreter_on_sooner_than_cpython_does():
+    """``configure()`` (the server's and every session's setup) sets the switch interval to
+    :data:`SWITCH_INTERVAL_S`, a tenth of CPython's 5 ms."""
+    from app.main import configure
+
+    before = sys.getswitchinterval()
+    sys.setswitchinterval(0.005)
+    try:
+        configure()
+        assert sys.getswitchinterval() == pytest.approx(SWITCH_INTERVAL_S, rel=1e-3)
+        assert SWITCH_INTERVAL_S <= 0.0005
+    finally:
+        sys.setswitchinterval(before)

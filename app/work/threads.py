@@ -13,6 +13,8 @@ Two sessions can therefore run Python at once, and HoloViews keeps process-wide 
 * :func:`later` runs a state change that comes from a HoloViews stream callback (a click, a
   zoom, which HoloViews runs outside the document's lock) on the session's next tick, where
   Bokeh holds the lock;
+* :func:`share_the_interpreter` shortens the time a thread runs Python before a waiting one
+  gets the interpreter, so a session's short redraw is not held back by another's long build;
 * :func:`writes_bokeh` marks a view's method that sets Bokeh models itself. Panel runs some
   widget callbacks on the event loop without the document's lock (a click that arrives while
   a debounced change is pending), and a Bokeh change made there raises in the server's
@@ -25,6 +27,7 @@ import collections
 import contextlib
 import functools
 import logging
+import sys
 import threading
 from typing import Any, Iterator
 
@@ -100,6 +103,20 @@ class FairRLock:
 #: while another builds a plot breaks the walk of the stream registry ("dictionary changed
 #: size during iteration").
 HV_LOCK = FairRLock()
+
+
+#: Seconds a thread runs Python before a thread waiting for the interpreter takes it over
+#: (CPython's default is 5 ms). A session's redraw is short bursts of Python between waits (for
+#: its run in a worker process, for :data:`HV_LOCK`, for the socket), and while another session
+#: builds a page, which is Python without a wait for seconds, each burst waited up to the whole
+#: interval to run: at 5 ms a redraw took about 4 times as long as alone, at 0.5 ms under 2
+#: times (``benchmarks/bench_isolation.py`` measures both in one run).
+SWITCH_INTERVAL_S = 0.0005
+
+
+def share_the_interpreter(interval: float = SWITCH_INTERVAL_S) -> None:
+    """Let a thread that waits for the interpreter take it after ``interval`` seconds."""
+    sys.setswitchinterval(interval)
 
 
 @contextlib.contextmanager
