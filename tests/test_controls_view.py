@@ -2,8 +2,11 @@
 
 A hover tooltip on a preset button stayed over the plots after the click; the buttons carry none,
 and the line under them names the preset just loaded with its description from ``app.presets``.
+A preset that clears an optional value (x₀) leaves its box empty in the page, not "NaN".
 """
 from __future__ import annotations
+
+import math
 
 import pytest
 
@@ -23,3 +26,18 @@ def test_a_loaded_preset_is_described_under_the_buttons_and_no_button_has_a_tool
     desc = PRESETS[label][0]
     assert f"{label}: " in view.preset_note.object
     assert desc.split()[0] in view.preset_note.object
+
+
+def test_a_preset_that_clears_x0_sends_the_page_an_empty_box():
+    """x₀ = 1, then the Fig 7 preset (x₀ cleared): the box's Bokeh model, which the page shows,
+    holds null, not NaN (which the page's box would read as "NaN"); a value comes back as is."""
+    state = ExplorerState(x0=1.0)
+    view = Controls(state=state)
+    box = view.fields["x0"].box
+    model = box.get_root()
+    assert model.value == 1.0
+    view.apply_preset("Fig 7")
+    assert state.x0 is None and box.value is None
+    assert model.value is None, model.value
+    state.x0 = 0.5
+    assert model.value == 0.5 and not math.isnan(model.value)

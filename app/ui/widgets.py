@@ -83,6 +83,19 @@ def shortened(v: Any) -> Any:
     return v
 
 
+class FloatBox(pn.widgets.FloatInput):
+    """Panel's ``FloatInput``, whose empty value reaches the page empty: Panel sends ``None`` as
+    NaN, and the page's box then reads "NaN" (an optional value, such as x₀, cleared by a
+    preset). Bokeh's box takes ``null`` and shows it empty."""
+
+    def _process_param_change(self, params: dict[str, Any]) -> dict[str, Any]:
+        empty = params.get("value", False) is None
+        out = super()._process_param_change(params)
+        if empty and "value" in out:
+            out["value"] = None
+        return out
+
+
 class Field(pn.viewable.Viewer):
     """A numeric parameter: its label, an exact-value box, a slider (if it has softbounds), its message."""
 
@@ -98,7 +111,7 @@ class Field(pn.viewable.Viewer):
         self._syncing = False
         value = getattr(state, name)
         integer = isinstance(p, param.Integer) if integer is None else integer
-        box_cls = pn.widgets.IntInput if integer else pn.widgets.FloatInput
+        box_cls = pn.widgets.IntInput if integer else FloatBox
         box_kw = dict(value=value, placeholder=placeholder, css_classes=["value-box"], margin=(0, 5))
         slider = bool(p.softbounds) if slider is None else slider
         text = label if label is not None else f"{p.label} · {p.doc}" if p.doc else p.label
