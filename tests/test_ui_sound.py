@@ -70,7 +70,7 @@ def _step_page_holds_the_rattle_sound(page, errors) -> None:
     assert data.size == round((50 / DEFAULT_EXCITATION_HZ + DEFAULT_TAIL) * rate)
     # Panel writes floats as int16(x × 32768): the peak of 0.99 is 32440
     assert int(np.max(np.abs(data))) == int(PEAK * 32768)
-    assert "Periodic buzz" in page.locator(".sound-hear p").first.inner_text()
+    expect(page.locator(".sound-hear p").first).to_contain_text("Periodic buzz", timeout=30_000)
     assert errors == []
 
 
