@@ -22,6 +22,8 @@ Also a Panel script: ``panel serve app/main.py`` builds one dashboard per sessio
   :func:`_recompute_only_when_needed` makes that walk happen only when a model was added or
   removed (Bokeh signals those by ``invalidate``) or the roots changed; a test checks the
   model set stays exact.
+* The page lays itself out once per frame of the server's changes (:mod:`app.ui.relayout`):
+  a click on "Present this" no longer lays the page out once per property it changes.
 """
 from __future__ import annotations
 
@@ -41,10 +43,12 @@ import panel as pn
 if __package__ in (None, ""):  # run as a script by `panel serve app/main.py`
     sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     from app import query
+    from app.ui import relayout
     from app.work import jobs, map_plan, tasks, threads
     from app.dashboard import Abandoned, Dashboard, Shell
 else:  # imported as a package: `app` in a checkout, `rattle_app` when installed
     from . import query
+    from .ui import relayout
     from .work import jobs, map_plan, tasks, threads
     from .dashboard import Abandoned, Dashboard, Shell
 
@@ -156,6 +160,8 @@ def create_app() -> pn.template.BootstrapTemplate:
     warm_up()
     doc, location = pn.state.curdoc, pn.state.location
     shell = Shell()
+    if doc is not None:
+        relayout.install(doc)
     if doc is None or doc.session_context is None:
         Dashboard(location=location, doc=doc, shell=shell)
         return shell.layout
