@@ -55,12 +55,12 @@ view.invalidate_layout = function () {
   return invalidate.call(this);
 };
 doc.apply_json_patch = function (...args) {
-  if (applying) return apply.apply(this, args);
+  const was = applying;
   applying = true;
   try {
     return apply.apply(this, args);
   } finally {
-    applying = false;
+    applying = was;
   }
 };
 view.__one_layout_per_frame = true;

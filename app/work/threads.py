@@ -109,9 +109,8 @@ HV_LOCK = FairRLock()
 #: (CPython's default is 5 ms). A session's redraw is short bursts of Python between waits (for
 #: its run in a worker process, for :data:`HV_LOCK`, for the socket), and while another session
 #: builds a page, which is Python without a wait for seconds, each burst waited up to the whole
-#: interval to run: at 5 ms a redraw took 4 to 6 times as long as alone, at 0.5 ms about 2
-#: times, the share two threads of one interpreter get (``benchmarks/bench_isolation.py``
-#: measures both in one run).
+#: interval to run: at 5 ms a redraw took 4 to 6 times as long as alone, at 0.5 ms about 2.5
+#: times (``benchmarks/bench_isolation.py`` measures both in one run).
 SWITCH_INTERVAL_S = 0.0005
 
 
