@@ -39,7 +39,7 @@ from .views.motion import MotionView
 from .views.noise import NoiseView
 from .views.pin import PinView
 from .views.present import PresentView
-from .work.threads import HV_LOCK
+from .work.threads import BUILD_LOCK, HV_LOCK, building, give_way
 from .session import Session
 from .views.sensitivity import SensitivityView
 from .views.sound import SoundView
@@ -123,19 +123,21 @@ class Shell:
 
 
 #: Views made of Panel widgets and plain Bokeh only, no HoloViews object: built without
-#: :data:`HV_LOCK`, so another session's redraw never waits for them (a test checks that
-#: they make no HoloViews element, map or stream).
+#: :data:`~app.work.threads.BUILD_LOCK`, so another page's build never waits for them (a test
+#: checks that they make no HoloViews element, map or stream).
 PLAIN_VIEWS = (Controls, UnitsView, PinView, NoiseView, TimeHistoryView, MotionView, SoundView,
                RunupView, PresentView)
 
 
 def _built(view: type, **kwargs: Any) -> Any:
-    """One view, built holding :data:`HV_LOCK` (its HoloViews streams) and letting go after,
-    so that another session's redraw waits for one view of this page, not for all of them;
-    a view of :data:`PLAIN_VIEWS` without it."""
+    """One view, built holding :data:`~app.work.threads.BUILD_LOCK` (its HoloViews streams)
+    and letting go after, so that another page's build waits for one view of this page, not
+    for all of them; a view of :data:`PLAIN_VIEWS` without it. Another session's redraw
+    waits for neither, and the build pauses for it first (:func:`~app.work.threads.give_way`)."""
+    give_way()
     if view in PLAIN_VIEWS:
         return view(**kwargs)
-    with HV_LOCK:
+    with BUILD_LOCK:
         return view(**kwargs)
 
 
@@ -161,6 +163,10 @@ class Dashboard:
             raise Abandoned("the page's client has gone")
 
     def _build(self, location: Any, doc: Any, pool: Any) -> None:
+        with building():
+            self._build_views(location, doc, pool)
+
+    def _build_views(self, location: Any, doc: Any, pool: Any) -> None:
         self._check_alive()
         self.session = Session(location=location, doc=doc, pool=pool)
         self._check_alive()  # the first run is done: the views and their plots come next
@@ -187,9 +193,10 @@ class Dashboard:
                               measurement=self.measurement)
         self.runup = _built(RunupView, state=s, jobs=jobs, gearbox=self.gearbox)
         self.present = _built(PresentView, state=s, header=self.shell.header)
-        with HV_LOCK:  # the views' panels may build HoloViews panes
+        give_way()
+        with BUILD_LOCK:  # the views' panels may build HoloViews panes
             maps_tab = self._arrange()
-        # each plot's models are built under the lock, one plot at a time (HoloViewsPane)
+        # each plot's models are built under the build lock, one plot at a time (HoloViewsPane)
         self._lay_out(maps_tab)
 
     def _arrange(self) -> Any:
@@ -243,7 +250,7 @@ class Dashboard:
         self.tabs.param.watch(self._on_tab, "active")
         s.param.watch(self._on_state_tab, "tab")
         if s.tab == "maps":
-            with HV_LOCK:
+            with HV_LOCK:  # it changes the map's view, as a redraw does
                 self.maps.open_link()
         self.layout = shell.layout
         shell.sidebar[:] = [self.controls, self.units]

@@ -44,12 +44,12 @@ if __package__ in (None, ""):  # run as a script by `panel serve app/main.py`
     sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     from app import query
     from app.ui import relayout
-    from app.work import jobs, map_plan, tasks, threads
+    from app.work import jobs, map_plan, registries, tasks, threads
     from app.dashboard import Abandoned, Dashboard, Shell
 else:  # imported as a package: `app` in a checkout, `rattle_app` when installed
     from . import query
     from .ui import relayout
-    from .work import jobs, map_plan, tasks, threads
+    from .work import jobs, map_plan, registries, tasks, threads
     from .dashboard import Abandoned, Dashboard, Shell
 
 log = logging.getLogger("app")
@@ -101,7 +101,8 @@ def _recompute_only_when_needed() -> None:
 
 def configure() -> None:
     """Serve every script and stylesheet from this server; load HoloViews' Bokeh backend; let
-    one session's redraw run while another's page is built (:func:`app.work.threads.share_the_interpreter`)."""
+    one session's redraw run while another's page is built (:mod:`app.work.registries`,
+    :func:`app.work.threads.share_the_interpreter`)."""
     import holoviews as hv
 
     os.environ.setdefault("BOKEH_RESOURCES", "server")
@@ -110,6 +111,7 @@ def configure() -> None:
     hv.extension("bokeh", logo=False)
     _recompute_only_when_needed()
     query.install()
+    registries.install()
     threads.share_the_interpreter()
 
 

@@ -43,7 +43,7 @@ from .state import (GEARBOX_URL_KEYS, MAP_URL_KEYS, PHYSICAL_KEYS, RUN_KEYS, URL
 from .physical import LinkError, link, run_physical
 from .query import readable, rejection, serialize, update_query_as_written
 from .work.page_run import TIME_LIMIT, PageRun, run_kwargs
-from .work.threads import HV_LOCK
+from .work.threads import BUILD_LOCK, HV_LOCK, drawing
 
 log = logging.getLogger(__name__)
 
@@ -92,8 +92,9 @@ class SessionJobs:
             doc = me.doc
             if doc is None or doc.session_context is None:
                 # a refresh holds this lock from its change to its message; a job that ends
-                # meanwhile must wait, or the refresh would clear the job's own message
-                with HV_LOCK:
+                # meanwhile must wait, or the refresh would clear the job's own message. With
+                # no document to lock, the page's build is waited for too
+                with BUILD_LOCK, HV_LOCK:
                     fn(arg)
                 return
             from panel.io.state import set_curdoc
@@ -164,7 +165,8 @@ class Session:
         """Carry a change of ``names`` across the link, run, publish; False if it was refused."""
         if self._busy:
             return False
-        with HV_LOCK:  # the views redraw HoloViews plots from here (see app.plots.HV_LOCK)
+        # the views redraw HoloViews plots from here; a page being built meanwhile pauses
+        with drawing(), HV_LOCK:
             return self._refresh(names, physical_wins)
 
     def _refresh(self, names: set[str], physical_wins: bool) -> bool:

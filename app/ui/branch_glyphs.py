@@ -4,8 +4,8 @@
 branch changes: stable parts solid, unstable parts dashed, one colour and one legend entry
 per branch (clicking an entry hides that branch), bifurcations marked with a diamond (named on
 hover) and labelled once each (:func:`mark_labels`), the legend in the emptiest corner
-(:func:`legend_corner`). They are not HoloViews elements, so a page's plot build, which holds
-:data:`app.work.threads.HV_LOCK`, does not pay for them.
+(:func:`legend_corner`). They are not HoloViews elements, so a page's plot build does not pay
+for them.
 """
 from __future__ import annotations
 
@@ -67,8 +67,7 @@ class BranchGlyphs:
     hover) and labelled (see :func:`branch_layers`).
 
     They are not HoloViews elements: as elements they were 13 of the diagram's 19 element
-    plots, and a page's plot build holds :data:`~app.work.threads.HV_LOCK`, which another
-    session's redraw waits for. The legend is Bokeh's too, so clicking an entry hides that
+    plots, each built under a lock (:func:`~app.work.threads.plot_lock`). The legend is Bokeh's too, so clicking an entry hides that
     branch. The figure is held weakly, so a closed page's figure is not kept.
     """
 

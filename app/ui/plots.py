@@ -24,7 +24,7 @@ import panel as pn
 from ..core import TWO_PI
 from ..state import display_phases
 from .labels import MARK_COLOR, PIN_COLOR, num
-from ..work.threads import HV_LOCK, later
+from ..work.threads import later, plot_lock
 
 #: Samples per forcing period of the time history (impact instants are added exactly).
 POINTS_PER_PERIOD = 160
@@ -152,7 +152,7 @@ def named_glyph(glyph: str) -> Callable:
 
 
 class HoloViewsPane(pn.pane.HoloViews):
-    """``pn.pane.HoloViews`` whose plots are built under :data:`HV_LOCK`.
+    """``pn.pane.HoloViews`` whose plots are built under :func:`~app.work.threads.plot_lock`.
 
     Its axes are its own unless it asks (``linked_axes=True``): Panel otherwise links the
     ranges of every plot on the page whose axes share a name, and the page's plots share
@@ -164,11 +164,11 @@ class HoloViewsPane(pn.pane.HoloViews):
     linked_axes = param.Boolean(default=False, doc="Link this plot's axes with other panes'.")
 
     def _get_model(self, *args: Any, **kwargs: Any) -> Any:
-        with HV_LOCK:
+        with plot_lock():
             return super()._get_model(*args, **kwargs)
 
     def _update_object(self, *args: Any, **kwargs: Any) -> Any:
-        with HV_LOCK:
+        with plot_lock():
             return super()._update_object(*args, **kwargs)
 
 

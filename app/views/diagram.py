@@ -16,7 +16,7 @@ redraw of the whole overlay (about 30 ms of server CPU: range computation over t
 option handling), a fifth of the slider budget, to move one line. A pinned run's value (A)
 gets a dashed line beside it, both named A and B (:class:`app.ui.plots.PinMarkers`). The
 continued branch is hand-written Bokeh too (:class:`app.ui.branch_glyphs.BranchGlyphs`),
-so a page's plot build holds the HoloViews lock for the raster and the marks only.
+so a page's plot build holds its lock for the raster and the marks only.
 """
 from __future__ import annotations
 

@@ -34,7 +34,7 @@ from ..ui.labels import text_html
 from ..ui.plots import HoloViewsPane
 from ..ui.widgets import Field, message, set_value
 from ..work import gearbox as work
-from ..work.threads import HV_LOCK
+from ..work.threads import plot_lock
 
 COLUMNS = ["name", "inertia_kgm2", "base_radius_m", "drag_torque_Nm", "backlash_um",
            "restitution", "speed_ratio", "driver_radius_m"]
@@ -130,7 +130,7 @@ class GearboxView(pn.viewable.Viewer):
 
     def _plot(self, key: str) -> hv.DynamicMap:
         """Plot ``key`` of :data:`PLOTS` as a DynamicMap following this view's results."""
-        with HV_LOCK:
+        with plot_lock():
             draw = {"regimes": lambda: regime_plot(self.base, self.variant),
                     "intensity": lambda: metric_plot(self.base, self.variant, "intensity",
                                                      "intensity Σ I²/s [N²·s]", logy=True),

@@ -34,7 +34,7 @@ from ..core import excitation, paper_phi2_to_core, plan_map
 from ..state import ExplorerState, MapSettings
 from ..work.map_plan import (AXES, FIELDS, PHYSICAL, RANGES, axis_label, grid_refusal,
                              request_key, scheduler)
-from ..work.threads import HV_LOCK, later
+from ..work.threads import later, plot_lock
 from ..ui.job_panel import JobPanel
 from ..ui.labels import map_colours, map_key, map_legend, text_html
 from ..ui.plots import TOOLS, HoloViewsPane, caption, file_stem, key_legend, save_as
@@ -290,7 +290,7 @@ class MapsView(pn.viewable.Viewer):
 
     def _plot(self) -> Any:
         """The map and the current point, with a click stream (one per colour scale)."""
-        with HV_LOCK:
+        with plot_lock():
             return self._build_plot()
 
     def _build_plot(self) -> Any:

@@ -34,7 +34,7 @@ from ..ui.labels import text_html
 from ..ui.plots import HoloViewsPane
 from ..ui.widgets import Field, message
 from ..work import gearbox as work
-from ..work.threads import HV_LOCK
+from ..work.threads import plot_lock
 
 #: The speed unit choices: "" reads the unit from the file.
 UNITS = {"as detected": "", **{u: u for u in SPEED_UNITS}}
@@ -105,7 +105,7 @@ class MeasurementView(pn.viewable.Viewer):
                   self.pulses_per_rev):
             w.param.watch(self._on_option, "value")
         self.window.param.watch(self._on_option, "value_throttled")
-        with HV_LOCK:
+        with plot_lock():
             self.orders_pane = HoloViewsPane(self._plot(orders_plot, lambda: self.order_map),
                                              sizing_mode="stretch_width",
                                              css_classes=["gb-orders-plot"])
@@ -120,7 +120,7 @@ class MeasurementView(pn.viewable.Viewer):
 
     def _redraw(self) -> None:
         # another file may bring other orders: each plot is built afresh
-        with HV_LOCK:
+        with plot_lock():
             self.orders_pane.object = self._plot(orders_plot, lambda: self.order_map)
             self.campbell_pane.object = self._plot(campbell_plot, lambda: self.campbell)
 

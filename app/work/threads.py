@@ -3,13 +3,18 @@
 Bokeh applies each session's browser events in a worker thread of its own, holding that
 session's document lock; the tornado loop runs the sessions' timers and next-tick callbacks.
 Two sessions can therefore run Python at once, and HoloViews keeps process-wide registries
-(streams, options) that are not safe against that. So:
+(streams, links, options) that are not safe against that. So:
 
-* :data:`HV_LOCK` is held while HoloViews builds streams or plots and while a session redraws;
-  a page is built one view and one plot at a time, each under the lock on its own, and the
-  lock passes to its waiters in turn (:class:`FairRLock`): another session's redraw waits for
-  one plot of a heavy page, never for the whole page;
-* :func:`unlocked` lets go of it around computation (a simulation never holds it);
+* :data:`HV_LOCK` is held while a session changes or redraws its views (one session at a
+  time); :data:`BUILD_LOCK` while a new page is built (one page at a time). A page build
+  and another session's redraw run side by side: the registries they both touch are made
+  safe for it (:mod:`app.work.registries`), and a redraw never waits for a page build;
+* :func:`plot_lock` is what building one HoloViews plot holds: within a redraw, the redraw's
+  lock; within a page build, the build's; elsewhere (a tab first shown) both;
+* :func:`building` marks the thread that builds a page, and :func:`give_way` lets it pause
+  while a redraw runs, so that a redraw has the interpreter to itself (for at most
+  :data:`GIVE_WAY_BUDGET_S` per page: a stream of redraws does not stall a page);
+* :func:`unlocked` lets go of :data:`HV_LOCK` around computation (a simulation never holds it);
 * :func:`later` runs a state change that comes from a HoloViews stream callback (a click, a
   zoom, which HoloViews runs outside the document's lock) on the session's next tick, where
   Bokeh holds the lock;
@@ -20,6 +25,9 @@ Two sessions can therefore run Python at once, and HoloViews keeps process-wide 
   a debounced change is pending), and a Bokeh change made there raises in the server's
   session; Panel's ``unlocked()``, which HoloViews uses for the same reason, collects the
   changes and sends them to the page, held or not.
+
+The locks are always taken in the order :data:`BUILD_LOCK`, then :data:`HV_LOCK`; a thread
+that holds :data:`HV_LOCK` never asks for :data:`BUILD_LOCK`, so the two cannot deadlock.
 """
 from __future__ import annotations
 
@@ -29,6 +37,7 @@ import functools
 import logging
 import sys
 import threading
+import time
 from typing import Any, Iterator
 
 import panel as pn
@@ -97,12 +106,83 @@ class FairRLock:
         self.release()
 
 
-#: Held while HoloViews builds streams or plots, and while a session redraws. Bokeh applies
-#: each session's browser events in a worker thread, so two sessions can draw at once, and
-#: HoloViews keeps process-wide registries (streams, options): a stream added by one session
-#: while another builds a plot breaks the walk of the stream registry ("dictionary changed
-#: size during iteration").
+#: Held while a session changes or redraws its views, and while a plot is built outside a
+#: page build. Bokeh applies each session's browser events in a worker thread, so two
+#: sessions could draw at once, and a session's background results must not land in the
+#: middle of its own redraw.
 HV_LOCK = FairRLock()
+
+#: Held while a new page builds its views and plots: page builds take turns, and a redraw
+#: never waits for one (see the module docstring).
+BUILD_LOCK = FairRLock()
+
+#: Seconds a page build spends, in all, paused for other sessions' redraws (:func:`give_way`).
+GIVE_WAY_BUDGET_S = 5.0
+
+_local = threading.local()
+_drawing = threading.Condition()
+_redraws = 0
+
+
+@contextlib.contextmanager
+def drawing() -> Iterator[None]:
+    """A session redraws during the block: page builds pause at their next step."""
+    global _redraws
+    with _drawing:
+        _redraws += 1
+    try:
+        yield
+    finally:
+        with _drawing:
+            _redraws -= 1
+            _drawing.notify_all()
+
+
+@contextlib.contextmanager
+def building() -> Iterator[None]:
+    """This thread builds a page during the block (:func:`plot_lock`, :func:`give_way`)."""
+    outer = getattr(_local, "budget", None)
+    if outer is None:
+        _local.budget = GIVE_WAY_BUDGET_S
+    try:
+        yield
+    finally:
+        if outer is None:
+            _local.budget = None
+
+
+def is_building() -> bool:
+    return getattr(_local, "budget", None) is not None
+
+
+def give_way() -> None:
+    """In a page build, wait while another session redraws (within the page's budget).
+
+    The interpreter runs one thread at a time: a build that went on meanwhile would take half
+    of it, and a redraw would take about twice as long as alone.
+    """
+    budget = getattr(_local, "budget", None)
+    if not budget or not _redraws or HV_LOCK._is_owned():
+        return
+    start = time.monotonic()
+    with _drawing:
+        _drawing.wait_for(lambda: _redraws == 0, timeout=budget)
+    _local.budget = max(0.0, budget - (time.monotonic() - start))
+
+
+@contextlib.contextmanager
+def plot_lock() -> Iterator[None]:
+    """What building one HoloViews plot holds; see the module docstring."""
+    if HV_LOCK._is_owned():
+        with HV_LOCK:
+            yield
+    elif is_building():
+        give_way()
+        with BUILD_LOCK:
+            yield
+    else:
+        with BUILD_LOCK, HV_LOCK:
+            yield
 
 
 #: Seconds a thread runs Python before a thread waiting for the interpreter takes it over
