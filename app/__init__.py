@@ -23,7 +23,8 @@ How a session is built (``app.main.create_app`` → :class:`app.dashboard.Dashbo
         measurement.MeasurementView    the Gearbox tab's measurement, orders, Campbell view
     work/    jobs.JobPool and tasks.py: background work in killable worker processes, with
              time limits; branch.py, diagram_data.py: what the continuation and the diagram
-             compute and load; threads.py: the plot lock and later() for stream callbacks
+             compute and load; threads.py: the redraws' and page builds' locks, later() for stream
+             callbacks; registries.py: HoloViews' registries locked for two threads
     ui/      labels.py: words, colours and escaped HTML; plots.py, widgets.py: helpers
     core.py  everything taken from rattle_core beyond its top-level names
 

@@ -31,7 +31,6 @@ import contextlib
 import contextvars
 import logging
 import os
-import signal
 import socket
 import sys
 import threading
@@ -43,11 +42,13 @@ import panel as pn
 if __package__ in (None, ""):  # run as a script by `panel serve app/main.py`
     sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     from app import query
+    from app.signals import no_sigint, sigint_deferred, sigint_ignored, sigint_noted
     from app.ui import relayout
     from app.work import jobs, map_plan, registries, tasks, threads
     from app.dashboard import Abandoned, Dashboard, Shell
 else:  # imported as a package: `app` in a checkout, `rattle_app` when installed
     from . import query
+    from .signals import no_sigint, sigint_deferred, sigint_ignored, sigint_noted
     from .ui import relayout
     from .work import jobs, map_plan, registries, tasks, threads
     from .dashboard import Abandoned, Dashboard, Shell
@@ -208,68 +209,6 @@ def _answers(address: str, port: int) -> bool:
         return False
 
 
-@contextlib.contextmanager
-def _no_sigint() -> Iterator[None]:
-    """SIGINT held back in this thread, and blocked for good in the processes it starts.
-
-    Ctrl-C in a terminal signals the whole process group; the server stops its workers
-    itself, so they must not die half-way with a traceback of their own.  An interrupt held
-    back here arrives once the block ends, where the server is ready to stop cleanly.
-    """
-    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
-
-
-@contextlib.contextmanager
-def _sigint_noted() -> Iterator[threading.Event]:
-    """A Ctrl-C during the block sets the event yielded, and raises nothing.
-
-    Python drops an exception raised inside a callback it calls on its own (a weak
-    reference's, or one numba's compiled code calls while loading kernels) with "Exception
-    ignored in …": a KeyboardInterrupt landing there was lost, and the server went on to
-    serve.  Here the handler only takes note.
-    """
-    noted = threading.Event()
-    if threading.current_thread() is not threading.main_thread():
-        yield noted
-        return
-    old = signal.signal(signal.SIGINT, lambda signum, frame: noted.set())
-    try:
-        yield noted
-    finally:
-        signal.signal(signal.SIGINT, old)
-
-
-@contextlib.contextmanager
-def _sigint_deferred() -> Iterator[None]:
-    """A Ctrl-C during the block is noted (:func:`_sigint_noted`), and raised as
-    KeyboardInterrupt once it ends."""
-    with _sigint_noted() as noted:
-        yield
-    if noted.is_set():
-        raise KeyboardInterrupt
-
-
-@contextlib.contextmanager
-def _sigint_ignored() -> Iterator[None]:
-    """SIGINT ignored while Dask starts its worker processes, which keep ignoring it.
-
-    Dask starts them from threads of its own, so :func:`_no_sigint`'s mask does not reach
-    them; an ignored signal does.  A Ctrl-C in these few seconds is lost, not half-handled.
-    """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, old)
-
-
 def _start_panel_timers(server) -> None:
     """Start Panel's process-wide periodic callback (its busy indicator's clean-up) on the
     server's loop, from an empty context.
@@ -317,10 +256,10 @@ def serve(port: int = 5006, address: str = "localhost", show: bool = False,
     with contextlib.ExitStack() as stack:
         # until the server is warm a Ctrl-C is noted and raised here at the end: loading HoloViews'
         # extension and numba's kernels calls back into Python, where it would be lost
-        with _sigint_deferred():
+        with sigint_deferred():
             if dask == "local":
                 from .core import local_cluster
-                with _sigint_ignored():
+                with sigint_ignored():
                     cluster = local_cluster(2)
                 if not threaded:  # a server that returns keeps its cluster; one that ends closes it
                     stack.callback(cluster.close)
@@ -330,7 +269,7 @@ def serve(port: int = 5006, address: str = "localhost", show: bool = False,
             logging.basicConfig(level=logging.INFO,
                                 format="%(asctime)s %(name)s %(levelname)s %(message)s")
             log.info("warming up (compiled kernels, shipped diagrams, worker processes)…")
-            with _no_sigint():
+            with no_sigint():
                 jobs.pool(warm=tasks.warm_up)
             warm_up()
         origins = kwargs.pop("websocket_origin", None) or [f"{address}:{port}", f"localhost:{port}",
@@ -340,7 +279,7 @@ def serve(port: int = 5006, address: str = "localhost", show: bool = False,
         kwargs.setdefault("unused_session_lifetime", UNUSED_SESSION_S * 1000)
         server = None
         try:
-            with _no_sigint():  # held back until the server's thread is known, to be stopped
+            with no_sigint():  # held back until the server's thread is known, to be stopped
                 server = pn.serve(create_app, port=port, address=address, show=show,
                                   title="Rattle Explorer", websocket_origin=origins,
                                   liveness=True, threaded=True, **kwargs)
@@ -357,7 +296,7 @@ def serve(port: int = 5006, address: str = "localhost", show: bool = False,
                     print(f"2-D maps run on Dask: {scheduler}", flush=True)
             if threaded:
                 return server
-            with _sigint_noted() as stop:  # Ctrl-C ends the wait, and the server stops below
+            with sigint_noted() as stop:  # Ctrl-C ends the wait, and the server stops below
                 while server.is_alive() and not stop.wait(0.5):
                     pass
             if stop.is_set():

@@ -79,10 +79,12 @@ def _alternated(items: list) -> list:
     files: dict[str, list] = {}
     for item in items:
         files.setdefault(item.nodeid.split("::", 1)[0], []).append(item)
-    first = [f for f in files.values() if any("long" in item.keywords for item in f)]
-    rest = [f for f in files.values() if f not in first]
-    ui = [f for f in rest if any("ui" in item.keywords for item in f)]
-    other = [f for f in rest if not any("ui" in item.keywords for item in f)]
+    def marked(f: list, mark: str) -> bool:
+        return any(mark in item.keywords for item in f)
+    first = [f for f in files.values() if marked(f, "long")]
+    rest = [f for f in files.values() if not marked(f, "long")]
+    ui = [f for f in rest if marked(f, "ui")]
+    other = [f for f in rest if not marked(f, "ui")]
     if not ui:
         return [item for f in first + other for item in f]
     order: list = [item for f in first for item in f]
@@ -247,15 +249,25 @@ def job_pool():
     pool.shutdown()
 
 
-@pytest.fixture()
-def dash(job_pool):
-    """A Dashboard with all its views, no server or browser; closed like a session afterwards."""
+def new_dashboard(pool, search: str | None = None, **kwargs):
+    """A Dashboard with all its views on the link ``search`` (if given), no server or browser,
+    set up as the server sets up a session; the caller closes it (``destroy()``)."""
+    from panel.io.location import Location
+
     from app.dashboard import Dashboard
     from app.main import configure, warm_up
 
     configure()
     warm_up(pool=False)
-    d = Dashboard(pool=job_pool)
+    if search is not None:
+        kwargs["location"] = Location(search=search)
+    return Dashboard(pool=pool, **kwargs)
+
+
+@pytest.fixture()
+def dash(job_pool):
+    """A Dashboard with all its views, no server or browser; closed like a session afterwards."""
+    d = new_dashboard(job_pool)
     yield d
     d.destroy()
 

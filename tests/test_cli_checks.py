@@ -277,10 +277,10 @@ def test_the_atlas_codim2_table_is_checked_first(tmp_path, capsys, monkeypatch):
 def test_a_ctrl_c_while_the_server_warms_up_is_raised_once_it_is_warm():
     """A Ctrl-C during warm-up is not raised inside it (numba's compiled code would print and
     drop it, and the server would go on serving), but as soon as warm-up ends."""
-    from app import main
+    from app.signals import sigint_deferred
     steps = []
     with pytest.raises(KeyboardInterrupt):
-        with main._sigint_deferred():
+        with sigint_deferred():
             os.kill(os.getpid(), signal.SIGINT)
             steps.append("after the signal")  # a callback inside compiled code stands here
             steps.append("warm")
@@ -289,17 +289,18 @@ def test_a_ctrl_c_while_the_server_warms_up_is_raised_once_it_is_warm():
 
 
 def test_a_ctrl_c_inside_a_weak_reference_callback_still_stops_the_server():
-    """The served dashboard waits for Ctrl-C with :func:`app.main._sigint_noted`: an
+    """The served dashboard waits for Ctrl-C with :func:`app.signals.sigint_noted` (and
+    ``rattle serve`` imports the server inside it): an
     interrupt that lands while Python runs a weak reference's callback (where a raised
     KeyboardInterrupt is printed and dropped) is still noted, and the handler is put back."""
     import weakref
 
-    from app.main import _sigint_noted
+    from app.signals import sigint_noted
 
     class Thing:
         pass
     before = signal.getsignal(signal.SIGINT)
-    with _sigint_noted() as stop:
+    with sigint_noted() as stop:
         thing = Thing()
         ref = weakref.ref(thing, lambda _: os.kill(os.getpid(), signal.SIGINT))
         del thing  # the callback runs here, and the signal arrives inside it

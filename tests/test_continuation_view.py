@@ -251,3 +251,25 @@ def test_the_a_b_legend_goes_to_the_corner_free_of_points():
     x, y = np.array([0.9, 0.1, 0.9]), np.array([0.9, 0.9, 0.1])
     assert free_corner(x, y, *lims) == "bottom_left"
     assert free_corner(np.zeros(0), np.zeros(0), *lims) == "top_right"
+
+
+def test_no_branch_drawn_again_sends_the_page_nothing():
+    """A diagram with no branch, redrawn: no glyph's data is set again (each set is a message
+    to the page: 13 of them at every redraw before), while a branch drawn after is set."""
+    from bokeh.document import Document
+    from bokeh.plotting import figure
+
+    glyphs, fig = BranchGlyphs(), figure()
+    assert glyphs.attach(fig)
+    doc = Document()
+    doc.add_root(fig)
+    glyphs.draw(None, "lam")
+    events: list = []
+    doc.on_change(events.append)
+    glyphs.draw(None, "lam")
+    assert events == []
+    marks = glyphs.models["cont-marks"].data_source
+    marks.data = {k: np.array([1.0]) if k in ("x", "y") else np.array(["a"]) for k in marks.data}
+    events.clear()
+    glyphs.draw(None, "lam")  # drawn marks, then none: set
+    assert len(marks.data["x"]) == 0 and [getattr(e, "attr", None) for e in events] == ["data"]

@@ -41,3 +41,20 @@ def test_a_preset_that_clears_x0_sends_the_page_an_empty_box():
     assert model.value is None, model.value
     state.x0 = 0.5
     assert model.value == 0.5 and not math.isnan(model.value)
+
+
+def test_the_slider_follows_a_typed_value_before_the_views_redraw():
+    """Λ typed into its box: the slider stands at it already when the state's first watcher
+    (the session's redraw, registered before any control) runs, not after every view has
+    redrawn; a value the state refuses puts the slider back."""
+    state = ExplorerState()
+    seen: list[float] = []
+    state.param.watch(lambda e: seen.append(view.fields["lam"].slider.value), "lam")
+    view = Controls(state=state)
+    field = view.fields["lam"]
+    new = state.lam + 0.125
+    field.box.value = new
+    assert seen == [pytest.approx(new)] and field.slider.value == pytest.approx(new)
+    field.box.value = -5.0  # Λ must be positive
+    assert state.lam == pytest.approx(new) and field.slider.value == pytest.approx(new)
+    assert field.slider.start <= new <= field.slider.end and field.slider.start >= 0

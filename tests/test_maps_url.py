@@ -11,7 +11,7 @@ import urllib.parse
 
 import numpy as np
 import pytest
-from conftest import wait_for
+from conftest import new_dashboard, wait_for
 from panel.io.location import Location
 
 from app.state import MAP_URL_KEYS, MapSettings
@@ -20,16 +20,11 @@ from app.state import MAP_URL_KEYS, MapSettings
 @pytest.fixture()
 def linked(job_pool):
     """Open dashboards on links; each is closed like a session afterwards."""
-    from app.dashboard import Dashboard
-    from app.main import configure, warm_up
-
-    configure()
-    warm_up(pool=False)
     opened = []
 
     def open_(search: str):
         loc = Location(search=search)
-        d = Dashboard(location=loc, pool=job_pool)
+        d = new_dashboard(job_pool, location=loc)
         opened.append(d)
         return d, loc
     yield open_

@@ -15,6 +15,7 @@ from panel.io.location import Location
 from app import state as st
 from app.pinning import PIN_KEYS, PIN_PHYSICAL_KEYS, parse_pin, pin_text, pinned_state
 from app.session import Session
+from conftest import new_dashboard
 from app.ui.labels import message_html
 from app.ui.plots import time_history_data
 from rattle_core import RattleParams, simulate
@@ -280,11 +281,7 @@ def physical_pin(**changes) -> tuple[str, dict]:
 
 
 def linked(search: str, job_pool):
-    from app.dashboard import Dashboard
-    from app.main import configure, warm_up
-    configure()
-    warm_up(pool=False)
-    return Dashboard(location=Location(search=search), pool=job_pool)
+    return new_dashboard(job_pool, search)
 
 
 def test_a_physical_pin_round_trips_its_physical_inputs():

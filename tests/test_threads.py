@@ -23,7 +23,7 @@ import pytest
 from app.work import threads
 from app.work.threads import (BUILD_LOCK, HV_LOCK, SWITCH_INTERVAL_S, FairRLock, building,
                                drawing, give_way, plot_lock, unlocked)
-from conftest import wait_for
+from conftest import new_dashboard, wait_for
 
 
 def test_a_waiting_thread_gets_the_lock_before_the_releaser_takes_it_back():
@@ -89,10 +89,7 @@ def test_a_page_build_lets_another_build_in_between_its_views(job_pool, monkeypa
     """While a page is built, a thread waiting for the build lock gets it before the last view
     is built."""
     from app import dashboard as dashboard_module
-    from app.main import configure, warm_up
 
-    configure()
-    warm_up(pool=False)
     built: list[str] = []
     got_in_at: list[int] = []
     real = dashboard_module._built
@@ -116,7 +113,7 @@ def test_a_page_build_lets_another_build_in_between_its_views(job_pool, monkeypa
             got_in_at.append(len(built))
     t = threading.Thread(target=other)
     t.start()
-    d = dashboard_module.Dashboard(pool=job_pool)
+    d = new_dashboard(job_pool)
     t.join(30)
     try:
         assert got_in_at == [built.index("TimeHistoryView") + 1], (got_in_at, built)

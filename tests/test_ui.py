@@ -161,13 +161,11 @@ def redrawn(page, before: float, timeout: float = 60_000) -> None:
     page.wait_for_function(f"() => Math.abs(({CHECKSUM})() - {before!r}) > 1e-6", timeout=timeout)
 
 
-#: Whether the Λ slider stands at ``want``: the server moves it after the box's value has come
-#: back, sometimes after the redraw too.
+#: Whether the Λ slider stands at ``want``: the server moves it once the box's value has come
+#: back (before it redraws the views).
 LAM_SLIDER_AT = """(want) => {
-  const models = [...Bokeh.documents[0].all_models];
-  const field = models.find(m => Array.isArray(m.css_classes) && m.css_classes.includes('ctl-lam'));
-  const within = (m) => m == null ? [] : [m, ...(m.children || []).flatMap(within)];
-  const slider = within(field).find(m => 'value_throttled' in m && 'start' in m && 'end' in m);
+  const slider = [...Bokeh.documents[0].all_models].find(
+    m => Array.isArray(m.css_classes) && m.css_classes.includes('slider-lam'));
   return slider != null && Math.abs(slider.value - want) < 1e-9;
 }"""
 

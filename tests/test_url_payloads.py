@@ -21,10 +21,9 @@ import numpy as np
 import panel as pn
 import pytest
 from bokeh.document import Document
-from panel.io.location import Location
 
-from app.dashboard import TABS, Dashboard
-from app.main import configure, warm_up
+from app.dashboard import TABS
+from conftest import new_dashboard
 from app.state import URL_KEYS
 
 #: Fifty sessions built and drawn in one process take minutes.
@@ -90,12 +89,9 @@ def active_markup(doc: Document) -> list[str]:
 def built(job_pool):
     """A function: the session that ``search`` opens, in a document, with each tab drawn in
     turn; returns what :func:`active_markup` found."""
-    configure()
-    warm_up(pool=False)
-
     def build(search: str) -> list[str]:
         doc = Document()
-        dash = Dashboard(location=Location(search=search), doc=doc, pool=job_pool)
+        dash = new_dashboard(job_pool, search, doc=doc)
         try:
             dash.shell.layout.server_doc(doc)
             found: list[str] = []

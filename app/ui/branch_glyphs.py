@@ -134,15 +134,17 @@ class BranchGlyphs:
         layers = branch_layers(branch, name, limits)
         for (i, stable), segments in layers["lines"].items():
             glyph = models[("cont-stable" if stable else "cont-unstable") + (f"-{i}" if i else "")]
-            glyph.data_source.data = {"xs": [np.asarray(seg, float)[:, 0] for seg in segments],
-                                      "ys": [np.asarray(seg, float)[:, 1] for seg in segments]}
+            _set_data(glyph.data_source,
+                      {"xs": [np.asarray(seg, float)[:, 0] for seg in segments],
+                       "ys": [np.asarray(seg, float)[:, 1] for seg in segments]})
         m = layers["marks"]
-        models["cont-marks"].data_source.data = {k: m[k].to_numpy() for k in ("x", "y", "label", "message")}
+        _set_data(models["cont-marks"].data_source,
+                  {k: m[k].to_numpy() for k in ("x", "y", "label", "message")})
         size = "13pt" if large else "9pt"
         for key in ("left", "right"):
             glyph = models["cont-labels" + ("" if key == "left" else "-r")]
             frame = layers[key]
-            glyph.data_source.data = {k: frame[k].to_numpy() for k in ("x", "y", "label")}
+            _set_data(glyph.data_source, {k: frame[k].to_numpy() for k in ("x", "y", "label")})
             if glyph.glyph.text_font_size != size:
                 glyph.glyph.text_font_size = size
         legend = models["cont-legend"]
@@ -159,6 +161,17 @@ class BranchGlyphs:
                    if (list(getattr(legend, k)) if k == "items" else getattr(legend, k)) != v}
         if changed:
             legend.update(**changed)
+
+
+def _set_data(source: Any, data: dict) -> None:
+    """``source``'s data set to ``data``, unless both are empty: a page with no branch would
+    otherwise get a message for each of these glyphs at every redraw."""
+    def empty(d: Any) -> bool:
+        return all(len(v) == 0 for v in d.values())
+    old = source.data
+    if empty(data) and empty(old) and set(old) == set(data):
+        return
+    source.data = data
 
 
 def mark_labels(marks: Any, limits: Any) -> tuple[pd.DataFrame, pd.DataFrame]:

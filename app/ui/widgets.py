@@ -124,7 +124,7 @@ class Field(pn.viewable.Viewer):
             self.box = box_cls(width=95, **box_kw)
             self.slider = pn.widgets.FloatSlider(value=value, start=lo, end=hi, step=p.step or 0.01,
                                                  show_value=False, sizing_mode="stretch_width",
-                                                 margin=(8, 10, 0, 10))
+                                                 margin=(8, 10, 0, 10), css_classes=[f"slider-{name}"])
             self.slider.param.watch(self._on_slider, "value_throttled")
             row = pn.Row(self.slider, self.box, sizing_mode="stretch_width", margin=0)
         else:
@@ -148,6 +148,10 @@ class Field(pn.viewable.Viewer):
             if value is None and not self._p.allow_None:
                 self._from_state()
                 return
+            # the slider follows the typed value at once: the state's watchers redraw every
+            # view before this field hears of the change, and the slider would move after them
+            if isinstance(value, (int, float)) and math.isfinite(value):
+                self._show_on_slider(value)
             set_value(self.state, self.name_, value)
             self._from_state()
 
@@ -165,14 +169,23 @@ class Field(pn.viewable.Viewer):
             shown = shortened(v)
             if self.box.value != shown:
                 self.box.value = shown
-            if self.slider is not None and v is not None:
-                lo, hi = self._p.softbounds
-                want = {"start": min(lo, v), "end": max(hi, v), "value": v}
-                changes = {k: x for k, x in want.items() if getattr(self.slider, k) != x}
-                if changes:
-                    self.slider.param.update(**changes)
+            if v is not None:
+                self._show_on_slider(v)
         finally:
             self._syncing = False
+
+    def _show_on_slider(self, v: float) -> None:
+        if self.slider is None:
+            return
+        lo, hi = self._p.softbounds
+        want = {"start": min(lo, v), "end": max(hi, v), "value": v}
+        changes = {k: x for k, x in want.items() if getattr(self.slider, k) != x}
+        if changes:
+            was, self._syncing = self._syncing, True
+            try:
+                self.slider.param.update(**changes)
+            finally:
+                self._syncing = was
 
 
 class Choice(pn.viewable.Viewer):

@@ -285,14 +285,14 @@ class DiagramView(pn.viewable.Viewer):
             color="#27ae60", line_width=1.5, line_dash="dotted")
         return self.zoom.apply(segs * text * paths, xlim, ylim)
 
-    @writes_bokeh
-    def _draw_branch(self, *_: Any) -> None:
-        """The continued branch (``state.branch``), drawn by :class:`~app.ui.branch_glyphs.BranchGlyphs`."""
-        self._branch_drawn()
-
-    def _branch_drawn(self) -> None:
+    def _branch_drawn(self, *_: Any) -> None:
+        """The continued branch (``state.branch``), drawn by :class:`~app.ui.branch_glyphs.BranchGlyphs`
+        (as :meth:`_draw_branch` when a change of the branch or the marks calls it, outside
+        HoloViews' own write of the figure)."""
         self.branch.draw(self.state.branch, self._name, self._limits(),
                          large=presents(self.state, "diagram"))
+
+    _draw_branch = writes_bokeh(_branch_drawn)
 
     def _name_plot(self, plot: Any, element: Any) -> None:
         """Title (the parameters, so a saved PNG carries them) and the save tool's file name."""

@@ -329,8 +329,9 @@ class MapsView(pn.viewable.Viewer):
 
     def _image(self, revision: int = 0) -> hv.Image:
         r, field = self.result, self.settings.field
-        if r is None:
-            return hv.Image(np.full((2, 2), np.nan), bounds=(0, 0, 1, 1)).opts(colorbar=False, framewise=True)
+        if r is None:  # nothing yet: an invisible image (NaN ones warn at every range computed)
+            return hv.Image(np.zeros((2, 2)), bounds=(0, 0, 1, 1)).opts(
+                colorbar=False, framewise=True, alpha=0)
         if field not in r.fields:
             field = "attractor" if r.kind == "basin" else "regime"
         z = np.asarray(r.fields[field], dtype=np.float64).copy()

@@ -4,7 +4,6 @@ from __future__ import annotations
 import argparse
 import ipaddress
 import re
-import signal
 import socket
 import threading
 
@@ -85,13 +84,11 @@ def run(args: argparse.Namespace) -> int:
     # Panel, Bokeh and numba load for seconds: a Ctrl-C meanwhile is noted, not raised, since
     # raised there it can land in a callback Python calls on its own (a weak reference's),
     # which prints it as "Exception ignored" and drops it, and the server would go on to serve
-    noted = threading.Event()
-    old = signal.signal(signal.SIGINT, lambda signum, frame: noted.set())
-    try:
+    from rattle_app.signals import sigint_noted  # light: the standard library only
+
+    with sigint_noted() as noted:
         # the repository's app/ folder, installed as rattle_app (see the README)
         from rattle_app.main import serve
-    finally:
-        signal.signal(signal.SIGINT, old)
     if noted.is_set():
         info(args, "stopped")
         return 0
