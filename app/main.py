@@ -113,6 +113,7 @@ def configure() -> None:
     _recompute_only_when_needed()
     query.install()
     registries.install()
+    threads.give_way_at_each_model()
     threads.share_the_interpreter()
 
 

@@ -6,9 +6,9 @@ takes: the run, every view, the PATCH-DOC message).  Its redraw times are measur
 (the baseline, in the same run) and then while another user keeps opening pages, one after
 the other, on
 
-* a plain link (the cost of someone opening a page at all: each of its views and plots is
-  built holding the HoloViews lock, as every redraw does, and the lock goes to a waiting
-  redraw between them);
+* a plain link (the cost of someone opening a page at all: its views and plots are built
+  under the page builds' lock, which no redraw waits for, and the build pauses at each view,
+  plot and Bokeh model while a redraw runs);
 * the audit's worst link (32 harmonics of amplitude 100 in a backlash of 0.01, 300 periods,
   and the same with ``transient=100000``): before the page's run had a budget, each of these
   simulated for minutes holding the lock every redraw needs (115 s for another session's
@@ -18,6 +18,8 @@ the other, on
 
 Each page is built as the server builds it: its frame is rendered into a Bokeh ``Document``
 first, and the dashboard built into that frame (so its plots are built inside the build).
+B redraws back to back, the worst case for the pauses: each page spends its whole pause
+budget (:data:`app.work.threads.GIVE_WAY_BUDGET_S`) and then shares the interpreter.
 
 Prints p50/p95/max of B's redraws in each case (wall time, and the CPU time of B's thread
 beside it: wall well above CPU is time spent waiting, for a lock, the interpreter or a core),

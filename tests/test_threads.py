@@ -201,6 +201,35 @@ def test_a_page_build_gives_way_to_a_redraw_within_its_budget(monkeypatch):
     assert waits[0] >= 0.25 and sum(waits[1:]) < 0.1, waits
 
 
+def test_a_page_build_pauses_at_the_next_bokeh_model_while_a_redraw_runs():
+    """After ``configure()`` a Bokeh model made in a page build waits for a running redraw;
+    made outside a build, or with no redraw running, it does not."""
+    from bokeh.models import Range1d
+
+    from app.main import configure
+
+    configure()
+    made: list[str] = []
+
+    def build() -> None:
+        with building():
+            Range1d()
+            made.append("in a build")
+    with drawing():
+        Range1d()  # not in a build: at once
+        made.append("outside a build")
+        b = threading.Thread(target=build)
+        b.start()
+        wait_for(lambda: len(threads._drawing._waiters) > 0, 30, "the build to pause")
+        assert made == ["outside a build"]
+    b.join(30)
+    assert made == ["outside a build", "in a build"]
+    with building():
+        t = time.monotonic()
+        Range1d()  # no redraw running
+        assert time.monotonic() - t < 0.5
+
+
 def _holds_within(lock: FairRLock, seconds: float = 10.0) -> bool:
     """Whether another thread can take ``lock`` within ``seconds``."""
     got: list[bool] = []

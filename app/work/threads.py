@@ -13,7 +13,8 @@ Two sessions can therefore run Python at once, and HoloViews keeps process-wide 
   lock; within a page build, the build's; elsewhere (a tab first shown) both;
 * :func:`building` marks the thread that builds a page, and :func:`give_way` lets it pause
   while a redraw runs, so that a redraw has the interpreter to itself (for at most
-  :data:`GIVE_WAY_BUDGET_S` per page: a stream of redraws does not stall a page);
+  :data:`GIVE_WAY_BUDGET_S` per page: a stream of redraws does not stall a page); it pauses
+  before each view, each plot and each Bokeh model (:func:`give_way_at_each_model`);
 * :func:`unlocked` lets go of :data:`HV_LOCK` around computation (a simulation never holds it);
 * :func:`later` runs a state change that comes from a HoloViews stream callback (a click, a
   zoom, which HoloViews runs outside the document's lock) on the session's next tick, where
@@ -245,3 +246,29 @@ def later(fn: Any, *args: Any) -> None:
         except Exception as exc:  # a callback never raises into the page
             log.warning("deferred update failed: %s: %s", type(exc).__name__, exc)
     doc.add_next_tick_callback(tick)
+
+
+_paused_models = False
+
+
+def give_way_at_each_model() -> None:
+    """Make each Bokeh model a page build creates a point where it gives way (:func:`give_way`).
+
+    A plot's build is some 0.3 s of Python with a few hundred models made along the way; a
+    redraw that starts meanwhile would otherwise share the interpreter with it to its end.
+    Outside a page build the check costs a thread-local read.
+    """
+    global _paused_models
+    if _paused_models:
+        return
+    from bokeh.model import Model
+
+    made = Model.__init__
+
+    @functools.wraps(made)
+    def init(self, *args: Any, **kwargs: Any) -> None:
+        if _redraws and getattr(_local, "budget", None):
+            give_way()
+        made(self, *args, **kwargs)
+    Model.__init__ = init
+    _paused_models = True
