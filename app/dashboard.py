@@ -242,6 +242,10 @@ class Dashboard:
         self._check_alive()  # what follows puts every view's models in the page
         shell = self.shell
         self.tabs = shell.tabs
+        # no tab is active while the tabs are put in, so that only the link's own tab is built:
+        # a tab built and hidden at once left plots that the page never received, and the
+        # server went on sending their changes ("reference … isn't known" in the page)
+        self.tabs.active = -1
         self.tabs.extend([("Explorer", self.explorer), ("Maps", maps_tab),
                           ("Gearbox", pn.Column(self.gearbox, self.runup,
                                                 sizing_mode="stretch_width"))])
