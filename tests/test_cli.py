@@ -268,11 +268,15 @@ def _fake_dashboard(monkeypatch, serve):
     def checked(**kwargs):
         inspect_sig.bind(**kwargs)
         return serve(**kwargs)
+    import app.signals
+
     main_mod = types.ModuleType("rattle_app.main")
     main_mod.serve = checked
     pkg = types.ModuleType("rattle_app")
-    pkg.main = main_mod
+    pkg.__path__ = []  # a package: ``rattle_app.signals`` is imported from it too
+    pkg.main, pkg.signals = main_mod, app.signals
     monkeypatch.setitem(sys.modules, "rattle_app", pkg)
+    monkeypatch.setitem(sys.modules, "rattle_app.signals", app.signals)
     monkeypatch.setitem(sys.modules, "rattle_app.main", main_mod)
 
 
