@@ -5,8 +5,10 @@ a real diagram sweep checks the results and progress against ``rattle_core.sweep
 """
 from __future__ import annotations
 
+import gc
 import threading
 import time
+import weakref
 
 import numpy as np
 import pytest
@@ -56,6 +58,25 @@ def test_a_diagram_job_returns_the_sweep_with_progress(pool):
     np.testing.assert_array_equal(out.result["impulse"], ref.table["impulse"].to_numpy())
     np.testing.assert_array_equal(out.result["regime"], ref.summary["regime"].to_numpy())
     assert out.progress and out.progress[-1] == 1.0
+
+
+
+def test_a_finished_jobs_callbacks_are_let_go_by_the_pool(pool):
+    """Once a job that reported progress has ended, nothing of the pool holds its callbacks:
+    what they reach (a closed page's views, in the server) is collected. A reader thread that
+    kept its last progress callback in a local held a page until its worker's next job."""
+    class Views:
+        pass
+    views, done, progress = Views(), threading.Event(), []
+    base = RattleParams(lam=2.0, amplitudes=(1.0, 0.25), phases_deg=(0.0, -135.0))
+    pool.submit(("freed", "diagram"), tasks.diagram, (base, "lam", np.linspace(1.0, 3.0, 40), 100, 30),
+                {"use_cache": False}, on_progress=lambda f, v=views: progress.append(f),
+                on_done=lambda r, v=views: done.set(), on_error=lambda m, v=views: done.set())
+    freed = weakref.ref(views)
+    del views
+    assert done.wait(120) and progress
+    # the callback that set ``done`` is still returning: wait for the reader to be idle again
+    wait_for(lambda: (gc.collect(), freed() is None)[-1], 20, "the pool to let go of the callbacks")
 
 
 LIMIT = 12.0

@@ -278,29 +278,36 @@ class JobPool:
                 kind, job_id, payload = w.conn.recv()
             except (EOFError, OSError, TypeError, ValueError):
                 break
-            if kind == "ready":
-                with self._lock:
-                    w.ready = True
-                self._dispatch()
-                continue
-            with self._lock:
-                job = w.job if w.job is not None and w.job.id == job_id else None
-                if job is not None and kind != "progress":
-                    w.job = None
-            if job is None:
-                continue
-            if kind == "progress":
-                cb = job.on_progress
-                if cb is not None and job.cancelled_at is None:
-                    try:
-                        cb(float(payload))
-                    except Exception as exc:
-                        log.warning("job progress callback failed: %s", exc)
-                continue
-            self._finish(job, "done" if kind == "done" else "failed", payload, payload)
-            self._dispatch()
+            # each message is handled in a call of its own: a local of this loop would keep the
+            # last callback (and so its closed session's whole page) alive while recv() waits
+            self._handle(w, kind, job_id, payload)
+            del payload
         if not self._closed and not w.dead:
             self._replace(w, "the worker process ended unexpectedly")
+
+    def _handle(self, w: _Worker, kind: str, job_id: int, payload: Any) -> None:
+        """One message of ``w``'s job: its progress, result or failure, or the worker ready."""
+        if kind == "ready":
+            with self._lock:
+                w.ready = True
+            self._dispatch()
+            return
+        with self._lock:
+            job = w.job if w.job is not None and w.job.id == job_id else None
+            if job is not None and kind != "progress":
+                w.job = None
+        if job is None:
+            return
+        if kind == "progress":
+            cb = job.on_progress
+            if cb is not None and job.cancelled_at is None:
+                try:
+                    cb(float(payload))
+                except Exception as exc:
+                    log.warning("job progress callback failed: %s", exc)
+            return
+        self._finish(job, "done" if kind == "done" else "failed", payload, payload)
+        self._dispatch()
 
     def _replace(self, w: _Worker, reason: str) -> None:
         """Kill ``w`` (if alive), fail its job with ``reason``, and start a new worker."""
