@@ -18,23 +18,29 @@ import types
 from typing import Any
 
 
+def _is(obj: Any, kinds: Any) -> bool:
+    """``isinstance`` by the object's own type: a weak proxy whose object is gone raises on
+    ``isinstance`` (it asks the proxy for ``__class__``)."""
+    return issubclass(type(obj), kinds)
+
+
 def _name(holder: Any, held: Any) -> str:
-    if isinstance(holder, types.FrameType):
+    if _is(holder, types.FrameType):
         return f"frame {holder.f_code.co_filename}:{holder.f_lineno} in {holder.f_code.co_name}"
-    if isinstance(holder, dict):
+    if _is(holder, dict):
         keys = [repr(k)[:60] for k, v in list(holder.items()) if v is held or k is held][:3]
         return f"dict[{', '.join(keys)}]"
-    if isinstance(holder, types.FunctionType):
+    if _is(holder, types.FunctionType):
         return f"function {holder.__module__}.{holder.__qualname__}"
-    if isinstance(holder, types.MethodType):
+    if _is(holder, types.MethodType):
         return f"bound method {holder.__func__.__module__}.{holder.__func__.__qualname__}"
-    if isinstance(holder, types.CellType):
+    if _is(holder, types.CellType):
         return "closure cell"
-    if isinstance(holder, types.ModuleType):
+    if _is(holder, types.ModuleType):
         return f"module {holder.__name__}"
-    if isinstance(holder, type):
+    if _is(holder, type):
         return f"class {holder.__module__}.{holder.__qualname__}"
-    if isinstance(holder, (list, tuple, set)):
+    if _is(holder, (list, tuple, set)):
         return f"{type(holder).__name__} of {len(holder)}"
     return f"{type(holder).__module__}.{type(holder).__qualname__}"
 
@@ -60,7 +66,7 @@ def roots(obj: Any, limit: int = 8) -> list[str]:
             continue
         # a module holds its dict; asking the C module _asyncio for its referents walks its
         # free lists, which does not end on CPython 3.12.1
-        held_by = ([vars(holder)] if isinstance(holder, types.ModuleType)
+        held_by = ([vars(holder)] if _is(holder, types.ModuleType)
                    else gc.get_referents(holder))
         for held in held_by:
             if gc.is_tracked(held):  # an untracked object (a str, an int) holds nothing tracked
@@ -74,7 +80,7 @@ def roots(obj: Any, limit: int = 8) -> list[str]:
     while queue and len(found) < limit:
         held = queue.popleft()
         holders = reverse.get(id(held), [])
-        is_root = (not holders or isinstance(held, (types.ModuleType, type))
+        is_root = (not holders or _is(held, (types.ModuleType, type))
                    or id(held) in running)
         if is_root and held is not obj:
             chain, node = [], held
